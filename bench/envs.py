@@ -1,0 +1,109 @@
+"""The only place environments are built.
+
+Any gymnasium id with Box observations and Box actions works; the PyBullet ids
+are registered by importing `pybullet_envs_gymnasium`, whose C code prints to
+the process's stdout, so every call that may reach it runs with fd 1 silenced.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import sys
+from collections.abc import Iterator
+
+import gymnasium as gym
+import numpy as np
+
+PAPER_ENVS = (
+    "InvertedPendulumBulletEnv-v0",
+    "InvertedDoublePendulumBulletEnv-v0",
+    "HopperBulletEnv-v0",
+    "Walker2DBulletEnv-v0",
+    "HalfCheetahBulletEnv-v0",
+    "AntBulletEnv-v0",
+)
+
+
+class EnvError(ValueError):
+    """An env id that cannot be made, or one whose spaces ifo-bench cannot use."""
+
+
+@contextlib.contextmanager
+def quiet_stdout() -> Iterator[None]:
+    """Silence file descriptor 1 (C-level prints included) for the block."""
+    sys.stdout.flush()
+    try:
+        saved = os.dup(1)
+    except OSError:  # no real stdout (some notebook kernels): nothing to silence
+        yield
+        return
+    devnull = os.open(os.devnull, os.O_WRONLY)
+    try:
+        os.dup2(devnull, 1)
+        yield
+    finally:
+        sys.stdout.flush()
+        os.dup2(saved, 1)
+        os.close(saved)
+        os.close(devnull)
+
+
+_registered = False
+
+
+def _register_pybullet() -> None:
+    global _registered
+    if not _registered:
+        with quiet_stdout():
+            import pybullet_envs_gymnasium  # noqa: F401  (registers the *BulletEnv ids)
+        _registered = True
+
+
+def check_env_id(env_id: str) -> None:
+    """Raise EnvError (one line) unless `env_id` is a registered id with Box spaces."""
+    _register_pybullet()
+    if env_id not in gym.registry:
+        close = [k for k in gym.registry if env_id.lower().split("-")[0] in k.lower()][:3]
+        hint = f" (did you mean {', '.join(close)}?)" if close else ""
+        raise EnvError(f"unknown env id {env_id!r}{hint}")
+
+
+def make(env_id: str, seed: int) -> gym.Env:
+    """Build `env_id`, reset it once with `seed`, and check its spaces.
+
+    The first reset happens here (quietly: PyBullet connects to its physics
+    server on it), so the env's random stream is fixed by `seed` alone.
+    """
+    check_env_id(env_id)
+    with quiet_stdout():
+        env = gym.make(env_id, disable_env_checker=True)
+        env.reset(seed=seed)
+    if not isinstance(env.action_space, gym.spaces.Box):
+        env.close()
+        raise EnvError(
+            f"{env_id} has a {type(env.action_space).__name__} action space; "
+            "ifo-bench needs continuous (Box) actions"
+        )
+    if not isinstance(env.observation_space, gym.spaces.Box):
+        env.close()
+        raise EnvError(
+            f"{env_id} has a {type(env.observation_space).__name__} observation space; "
+            "ifo-bench needs Box observations"
+        )
+    env.action_space.seed(seed)
+    return env
+
+
+def spaces(env_id: str) -> tuple[int, int, np.ndarray, np.ndarray]:
+    """(obs_dim, act_dim, action low, action high) of `env_id`."""
+    env = make(env_id, seed=0)
+    try:
+        return (
+            int(np.prod(env.observation_space.shape)),
+            int(np.prod(env.action_space.shape)),
+            env.action_space.low.astype(np.float32),
+            env.action_space.high.astype(np.float32),
+        )
+    finally:
+        env.close()

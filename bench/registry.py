@@ -1,0 +1,155 @@
+"""Algorithm registry: name -> how to train it.
+
+An algorithm is one function plus a config dataclass::
+
+    from dataclasses import dataclass
+    from bench.registry import register
+
+    @dataclass
+    class MyConfig:
+        lr: float = 3e-4
+        \"\"\"Adam learning rate.\"\"\"
+
+    @register("my-ifo", config=MyConfig, inputs="states")
+    def train(task, demos, budget, seed, logger, config: MyConfig):
+        env = task.make_env(seed)            # counts every env step against `budget`
+        ...                                  # learn from demos.observations only
+        logger.checkpoint(steps_so_far, policy)   # optional: the runner evaluates it
+        return policy                        # (B, O) float32 array -> (B, A) array
+
+`inputs` says what `demos` is: "states" -> `Demos` (no actions, by type),
+"actions" -> `ActionDemos` (GAIL only), "expert" -> the expert `Policy`,
+"none" -> None. Built-ins register on import of `algorithms`; other packages
+register through the entry-point group `ifo_bench.algorithms`, whose entry
+points name a module (or callable) to import, e.g. in their pyproject.toml::
+
+    [project.entry-points."ifo_bench.algorithms"]
+    my-ifo = "my_package.my_ifo"
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import importlib.metadata
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any, Literal, Protocol
+
+import gymnasium as gym
+import numpy as np
+
+Inputs = Literal["none", "states", "actions", "expert"]
+ENTRY_POINT_GROUP = "ifo_bench.algorithms"
+
+
+class Policy(Protocol):
+    """Maps a batch of observations (B, O) float32 to actions (B, A), deterministically."""
+
+    def __call__(self, obs: np.ndarray) -> np.ndarray: ...
+
+
+@dataclass(frozen=True)
+class Task:
+    """What an algorithm knows about the environment it trains on."""
+
+    env_id: str
+    obs_dim: int
+    act_dim: int
+    action_low: np.ndarray
+    action_high: np.ndarray
+    make_env: Callable[[int], gym.Env]
+    """make_env(seed) -> a fresh env whose every step counts against the trial's budget."""
+    device: str = "cpu"
+    """Where networks live; "cuda" when the runner was asked for a GPU."""
+
+
+class Logger(Protocol):
+    """What the runner hands an algorithm to report progress."""
+
+    def checkpoint(self, env_steps: int, policy: Policy) -> None:
+        """Offer the current policy; the runner evaluates it when an eval is due."""
+
+    def log(self, env_steps: int, **scalars: float) -> None:
+        """Record diagnostics (e.g. discriminator accuracy) at `env_steps`."""
+
+
+class TrainFn(Protocol):
+    def __call__(
+        self, task: Task, demos: Any, budget: int, seed: int, logger: Logger, config: Any
+    ) -> Policy: ...
+
+
+@dataclass(frozen=True)
+class Algorithm:
+    name: str
+    train: TrainFn
+    config: type
+    """A dataclass; suite overrides become config(**overrides)."""
+    inputs: Inputs
+    description: str = ""
+
+    @property
+    def uses_actions(self) -> bool:
+        return self.inputs == "actions"
+
+    def make_config(self, overrides: dict[str, Any]) -> Any:
+        """config(**overrides); raises ValueError naming any unknown key."""
+        known = {f.name for f in dataclasses.fields(self.config)}
+        unknown = sorted(set(overrides) - known)
+        if unknown:
+            raise ValueError(
+                f"algorithm {self.name!r} has no hyperparameter {', '.join(map(repr, unknown))}"
+                f" (known: {', '.join(sorted(known)) or 'none'})"
+            )
+        return self.config(**overrides)
+
+
+class RegistryError(KeyError):
+    def __str__(self) -> str:
+        return str(self.args[0])
+
+
+_ALGORITHMS: dict[str, Algorithm] = {}
+_loaded = False
+
+
+def register(
+    name: str, *, config: type, inputs: Inputs, description: str = ""
+) -> Callable[[TrainFn], TrainFn]:
+    """Decorator: register `train` under `name`."""
+    if inputs not in ("none", "states", "actions", "expert"):
+        raise ValueError(f"inputs must be none|states|actions|expert, not {inputs!r}")
+    if not dataclasses.is_dataclass(config):
+        raise TypeError(f"config of {name!r} must be a dataclass")
+
+    def wrap(train: TrainFn) -> TrainFn:
+        doc = description or (train.__doc__ or "").strip().split("\n")[0]
+        _ALGORITHMS[name] = Algorithm(name, train, config, inputs, doc)
+        return train
+
+    return wrap
+
+
+def _load_all() -> None:
+    global _loaded
+    if _loaded:
+        return
+    _loaded = True
+    import algorithms  # noqa: F401  (built-ins register themselves)
+
+    for ep in importlib.metadata.entry_points(group=ENTRY_POINT_GROUP):
+        ep.load()  # importing the module runs its @register
+
+
+def get(name: str) -> Algorithm:
+    _load_all()
+    if name not in _ALGORITHMS:
+        raise RegistryError(
+            f"unknown algorithm {name!r} (registered: {', '.join(sorted(_ALGORITHMS))})"
+        )
+    return _ALGORITHMS[name]
+
+
+def all_algorithms() -> dict[str, Algorithm]:
+    _load_all()
+    return dict(_ALGORITHMS)

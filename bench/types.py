@@ -1,0 +1,128 @@
+"""Data types that cross module boundaries. Frozen; shapes checked on construction.
+
+Shapes use T for steps in an episode, B for a batch, O for the observation
+size and A for the action size.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+from dataclasses import asdict, dataclass, field
+from typing import Any
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class Demos:
+    """State-only demonstrations: what an imitation-from-observation algorithm gets.
+
+    There is deliberately no `actions` field anywhere on this type.
+    """
+
+    env_id: str
+    observations: tuple[np.ndarray, ...]
+    """One (T_i + 1, O) float32 array per episode; row T_i is the episode's true final observation."""
+
+    def __post_init__(self) -> None:
+        if not self.observations:
+            raise ValueError("Demos needs at least one episode")
+        dims = {o.shape[1] for o in self.observations if o.ndim == 2}
+        if len(dims) != 1 or any(o.ndim != 2 or len(o) < 2 for o in self.observations):
+            raise ValueError("each episode must be a (T+1, O) array with T >= 1 and one O for all")
+
+    @property
+    def obs_dim(self) -> int:
+        return self.observations[0].shape[1]
+
+    @property
+    def n_episodes(self) -> int:
+        return len(self.observations)
+
+    def transitions(self) -> tuple[np.ndarray, np.ndarray]:
+        """All (s, s') pairs: two (sum T_i, O) arrays."""
+        obs = np.concatenate([o[:-1] for o in self.observations])
+        next_obs = np.concatenate([o[1:] for o in self.observations])
+        return obs, next_obs
+
+
+@dataclass(frozen=True)
+class ActionDemos:
+    """Demonstrations with the expert's actions. Only GAIL (and tests) may receive these."""
+
+    demos: Demos
+    actions: tuple[np.ndarray, ...]
+    """One (T_i, A) float32 array per episode, aligned with `demos.observations[i][:-1]`."""
+
+    def __post_init__(self) -> None:
+        if len(self.actions) != self.demos.n_episodes:
+            raise ValueError("one action array per episode")
+        for o, a in zip(self.demos.observations, self.actions, strict=True):
+            if a.ndim != 2 or len(a) != len(o) - 1:
+                raise ValueError("actions of episode i must be (T_i, A) with T_i = len(obs_i) - 1")
+
+    @property
+    def env_id(self) -> str:
+        return self.demos.env_id
+
+    def state_actions(self) -> tuple[np.ndarray, np.ndarray]:
+        """All (s, a) pairs: (sum T_i, O) and (sum T_i, A)."""
+        obs = np.concatenate([o[:-1] for o in self.demos.observations])
+        return obs, np.concatenate(self.actions)
+
+
+@dataclass(frozen=True)
+class TrialSpec:
+    """Everything that determines one trial. Its id is a hash of all of it."""
+
+    suite: str
+    env_id: str
+    algorithm: str
+    n_demos: int
+    seed: int
+    budget: int
+    """Env steps the algorithm may take while training."""
+    eval_episodes: int
+    hyperparams: dict[str, Any] = field(default_factory=dict)
+    """Overrides of the algorithm's config dataclass; JSON-serializable."""
+
+    def canonical(self) -> str:
+        return json.dumps(asdict(self), sort_keys=True, separators=(",", ":"))
+
+    @property
+    def trial_id(self) -> str:
+        return hashlib.sha256(self.canonical().encode()).hexdigest()[:16]
+
+    def __hash__(self) -> int:
+        return hash(self.canonical())
+
+
+@dataclass(frozen=True)
+class CurvePoint:
+    env_steps: int
+    mean_return: float
+
+
+@dataclass(frozen=True)
+class TrialResult:
+    """One finished trial, as written to disk."""
+
+    spec: TrialSpec
+    status: str
+    """"ok" or "failed"."""
+    returns: list[float]
+    """Undiscounted return of each evaluation episode (empty when failed)."""
+    curve: list[CurvePoint]
+    """Evaluation return against env steps used so far."""
+    env_steps: int
+    wall_time: float
+    """Seconds from start of training to end of final evaluation."""
+    versions: dict[str, str]
+    traceback: str | None = None
+    logs: dict[str, list[float]] = field(default_factory=dict)
+    """Algorithm diagnostics over training, e.g. discriminator loss and accuracy."""
+
+    @property
+    def trial_id(self) -> str:
+        return self.spec.trial_id
