@@ -8,6 +8,7 @@ the process's stdout, so every call that may reach it runs with fd 1 silenced.
 from __future__ import annotations
 
 import contextlib
+import ctypes
 import os
 import sys
 from collections.abc import Iterator
@@ -29,23 +30,35 @@ class EnvError(ValueError):
     """An env id that cannot be made, or one whose spaces ifo-bench cannot use."""
 
 
+_libc = ctypes.CDLL(None)
+
+
 @contextlib.contextmanager
 def quiet_stdout() -> Iterator[None]:
-    """Silence file descriptor 1 (C-level prints included) for the block."""
+    """Silence file descriptors 1 and 2 (C-level prints included) for the block.
+
+    PyBullet prints its build banner and `argv[0]=` from C; Python exceptions
+    still propagate normally, they are not printed here.
+    """
     sys.stdout.flush()
+    sys.stderr.flush()
     try:
-        saved = os.dup(1)
+        saved = [os.dup(1), os.dup(2)]
     except OSError:  # no real stdout (some notebook kernels): nothing to silence
         yield
         return
     devnull = os.open(os.devnull, os.O_WRONLY)
     try:
         os.dup2(devnull, 1)
+        os.dup2(devnull, 2)
         yield
     finally:
         sys.stdout.flush()
-        os.dup2(saved, 1)
-        os.close(saved)
+        sys.stderr.flush()
+        _libc.fflush(None)  # C stdio buffers too, or they drain into the real fds later
+        for fd, copy in zip((1, 2), saved, strict=True):
+            os.dup2(copy, fd)
+            os.close(copy)
         os.close(devnull)
 
 

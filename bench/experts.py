@@ -1,0 +1,152 @@
+"""Experts: train with TRPO, save, load, evaluate.
+
+An expert is two files in `bench.paths.expert_dir(env_id)`:
+  policy.pt  the GaussianPolicy state dict (normalizer statistics included);
+             load with torch.load(..., weights_only=True)
+  meta.json  env id, sizes, training steps, wall time, seed, package version,
+             and the return over `EVAL_EPISODES` deterministic episodes.
+"""
+
+from __future__ import annotations
+
+import copy
+import io
+import json
+import os
+import time
+from dataclasses import asdict
+from pathlib import Path
+
+import numpy as np
+import torch
+from tqdm import tqdm
+
+import bench
+from bench import envs, paths
+from bench.rl.networks import DeterministicPolicy, GaussianPolicy
+from bench.rl.rollout import evaluate
+from bench.rl.trpo import TRPO, TRPOConfig, train
+
+EVAL_EPISODES = 50
+
+
+class ExpertError(FileNotFoundError):
+    def __str__(self) -> str:
+        return str(self.args[0])
+
+
+def atomic_write_bytes(path: Path, data: bytes) -> None:
+    """Write via a temp file in the same folder and rename, so readers never see half a file."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    with open(tmp, "wb") as f:
+        f.write(data)
+        f.flush()
+        os.fsync(f.fileno())
+    os.replace(tmp, path)
+
+
+def evaluate_policy(policy, env_id: str, episodes: int, seed: int, n_envs: int = 10) -> list[float]:
+    """Returns of a deterministic numpy policy over `episodes` episodes of fresh envs."""
+    pool = [envs.make(env_id, seed + i) for i in range(min(n_envs, episodes))]
+    try:
+        return evaluate(policy, pool, episodes, seed)
+    finally:
+        for env in pool:
+            env.close()
+
+
+def save_expert(env_id: str, policy: GaussianPolicy, meta: dict, out_dir: Path | None = None) -> Path:
+    out = out_dir or paths.expert_dir(env_id)
+    buf = io.BytesIO()
+    torch.save({k: v.detach().cpu() for k, v in policy.state_dict().items()}, buf)
+    atomic_write_bytes(out / "policy.pt", buf.getvalue())
+    atomic_write_bytes(out / "meta.json", (json.dumps(meta, indent=2) + "\n").encode())
+    return out
+
+
+def read_meta(env_id: str) -> dict:
+    if not paths.has_expert(env_id):
+        raise ExpertError(
+            f"no expert for {env_id} in {paths.EXPERTS_DIR} (train one: bench experts train {env_id})"
+        )
+    return json.loads((paths.expert_dir(env_id) / "meta.json").read_text())
+
+
+def load_expert(env_id: str) -> DeterministicPolicy:
+    """The shipped expert for `env_id` as a deterministic numpy policy."""
+    meta = read_meta(env_id)
+    state = torch.load(paths.expert_dir(env_id) / "policy.pt", weights_only=True, map_location="cpu")
+    policy = GaussianPolicy(meta["obs_dim"], meta["act_dim"], tuple(meta["hidden"]))
+    policy.load_state_dict(state)
+    return DeterministicPolicy(policy, np.array(meta["action_low"]), np.array(meta["action_high"]))
+
+
+def list_experts() -> list[dict]:
+    if not paths.EXPERTS_DIR.is_dir():
+        return []
+    return [
+        json.loads((d / "meta.json").read_text())
+        for d in sorted(paths.EXPERTS_DIR.iterdir())
+        if paths.has_expert(d.name)
+    ]
+
+
+def train_expert(
+    env_id: str,
+    steps: int,
+    seed: int = 0,
+    cfg: TRPOConfig | None = None,
+    out_dir: Path | None = None,
+    progress: bool = True,
+) -> dict:
+    """Train a TRPO expert on the env reward, keep the better of final and best-seen, save it."""
+    cfg = cfg or TRPOConfig()
+    obs_dim, act_dim, low, high = envs.spaces(env_id)
+    start = time.time()
+    recent: list[float] = []
+    best = {"score": -np.inf, "state": None, "steps": 0}
+    bar = tqdm(total=steps, desc=f"expert {env_id}", unit="step", disable=not progress, smoothing=0.05)
+
+    def on_update(n: int, learner: TRPO, batch, info: dict) -> None:
+        recent.extend(batch.episode_returns)
+        del recent[:-20]
+        # Snapshot the best training return seen: TRPO sometimes slips late in a run.
+        if len(recent) >= 5 and np.mean(recent) > best["score"]:
+            best.update(score=float(np.mean(recent)), state=copy.deepcopy(learner.policy.state_dict()), steps=n)
+        bar.update(batch.n_steps)
+        bar.set_postfix(ret=f"{np.mean(recent):.0f}" if recent else "-")
+
+    learner = train(lambda s: envs.make(env_id, s), steps, seed, cfg, callback=on_update)
+    bar.close()
+    candidates = [("final", copy.deepcopy(learner.policy.state_dict()), steps)]
+    if best["state"] is not None:
+        candidates.append(("best", best["state"], best["steps"]))
+    scored = []
+    for name, state, at in candidates:
+        policy = GaussianPolicy(obs_dim, act_dim, cfg.hidden)
+        policy.load_state_dict(state)
+        rets = evaluate_policy(DeterministicPolicy(policy, low, high), env_id, EVAL_EPISODES, seed=10_000)
+        scored.append((float(np.mean(rets)), float(np.std(rets)), name, policy, at))
+    mean, std, which, policy, at = max(scored, key=lambda s: s[0])
+    meta = {
+        "env_id": env_id,
+        "obs_dim": obs_dim,
+        "act_dim": act_dim,
+        "action_low": low.tolist(),
+        "action_high": high.tolist(),
+        "hidden": list(cfg.hidden),
+        "train_steps": steps,
+        "snapshot": which,
+        "snapshot_steps": at,
+        "seed": seed,
+        "wall_time_s": round(time.time() - start, 1),
+        "package_version": bench.__version__,
+        "torch_version": torch.__version__,
+        "trpo_config": {k: list(v) if isinstance(v, tuple) else v for k, v in asdict(cfg).items()},
+        "eval_episodes": EVAL_EPISODES,
+        "return_mean": round(mean, 2),
+        "return_std": round(std, 2),
+    }
+    save_expert(env_id, policy, meta, out_dir)
+    return meta

@@ -1,0 +1,154 @@
+"""Batched on-policy collection over several envs in one process.
+
+Envs are stepped one after another; the policy runs once per step on all of
+their observations together, so inference costs ~1/E of a per-env forward.
+Episodes carry over between batches: an env is reset only when its episode ends.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import gymnasium as gym
+import numpy as np
+import torch
+
+from bench.rl.networks import GaussianPolicy
+
+
+@dataclass(frozen=True)
+class Batch:
+    """T steps from each of E envs. Arrays are (T, E, ...); `next_obs` is the true s'.
+
+    At an episode's last step `next_obs` is its final observation (terminated
+    or truncated), never the following episode's reset observation.
+    """
+
+    obs: np.ndarray
+    """(T, E, O) float32."""
+    actions: np.ndarray
+    """(T, E, A) float32, as sampled (before clipping to the action bounds)."""
+    next_obs: np.ndarray
+    """(T, E, O) float32."""
+    rewards: np.ndarray
+    """(T, E) float32 env rewards."""
+    terminated: np.ndarray
+    """(T, E) bool: the episode ended in a terminal state (no bootstrap)."""
+    truncated: np.ndarray
+    """(T, E) bool: the episode was cut by its time limit (bootstrap from next_obs)."""
+    timesteps: np.ndarray
+    """(T, E) int64: index of the step within its episode (0 at reset)."""
+    episode_returns: list[float]
+    """Env returns of the episodes that finished during this batch."""
+    episode_lengths: list[int]
+
+    @property
+    def n_steps(self) -> int:
+        return self.rewards.size
+
+    def flat(self, name: str) -> np.ndarray:
+        """Field `name` with the (T, E) axes merged into one."""
+        x = getattr(self, name)
+        return x.reshape(-1, *x.shape[2:])
+
+
+RewardFn = Callable[[Batch], np.ndarray]
+"""Replaces the env reward: Batch -> (T, E) rewards, a function of (obs, action, next_obs) (and timestep)."""
+
+
+class VecCollector:
+    """Holds E live envs and collects `Batch`es from them with a Gaussian policy."""
+
+    def __init__(self, envs: list[gym.Env], seed: int) -> None:
+        self.envs = envs
+        self.obs = np.stack([env.reset(seed=seed + i)[0] for i, env in enumerate(envs)]).astype(np.float32)
+        self.t = np.zeros(len(envs), dtype=np.int64)
+        self.ret = np.zeros(len(envs), dtype=np.float64)
+        self.low = envs[0].action_space.low.astype(np.float32)
+        self.high = envs[0].action_space.high.astype(np.float32)
+        self.gen = torch.Generator().manual_seed(seed)
+
+    @torch.no_grad()
+    def collect(self, policy: GaussianPolicy, steps_per_env: int) -> Batch:
+        T, E = steps_per_env, len(self.envs)
+        O, A = self.obs.shape[1], self.low.shape[0]
+        obs = np.empty((T, E, O), np.float32)
+        next_obs = np.empty((T, E, O), np.float32)
+        actions = np.empty((T, E, A), np.float32)
+        rewards = np.empty((T, E), np.float32)
+        terminated = np.zeros((T, E), bool)
+        truncated = np.zeros((T, E), bool)
+        timesteps = np.empty((T, E), np.int64)
+        ep_returns: list[float] = []
+        ep_lengths: list[int] = []
+        device = policy.log_std.device
+        std = policy.log_std.exp()
+        for t in range(T):
+            obs[t] = self.obs
+            timesteps[t] = self.t
+            mean = policy(torch.from_numpy(self.obs).to(device))
+            act = (mean + std * torch.randn(mean.shape, generator=self.gen).to(device)).cpu().numpy()
+            actions[t] = act
+            clipped = np.clip(act, self.low, self.high)
+            for i, env in enumerate(self.envs):
+                o, r, term, trunc, _ = env.step(clipped[i])
+                next_obs[t, i] = o
+                rewards[t, i] = r
+                self.ret[i] += r
+                self.t[i] += 1
+                if term or trunc:
+                    terminated[t, i], truncated[t, i] = term, trunc and not term
+                    ep_returns.append(float(self.ret[i]))
+                    ep_lengths.append(int(self.t[i]))
+                    o, _ = env.reset()
+                    self.ret[i], self.t[i] = 0.0, 0
+                self.obs[i] = o
+        return Batch(obs, actions, next_obs, rewards, terminated, truncated, timesteps, ep_returns, ep_lengths)
+
+    def close(self) -> None:
+        for env in self.envs:
+            env.close()
+
+
+def evaluate(
+    policy: Callable[[np.ndarray], np.ndarray],
+    envs: list[gym.Env],
+    episodes: int,
+    seed: int,
+) -> list[float]:
+    """Returns of `episodes` full episodes of a deterministic numpy policy.
+
+    Runs up to len(envs) episodes side by side so the policy sees one batch per
+    step. Episode k resets with seed `seed + k`, and returns come back in
+    episode order, so the result does not depend on how many envs are used.
+    """
+    returns = np.full(episodes, np.nan)
+    free = list(envs)
+    live: list[tuple[int, gym.Env]] = []
+    obs: list[np.ndarray] = []
+    acc: list[float] = []
+    next_episode = 0
+    while next_episode < episodes or live:
+        while free and next_episode < episodes:
+            env = free.pop()
+            o, _ = env.reset(seed=seed + next_episode)
+            live.append((next_episode, env))
+            obs.append(np.asarray(o, np.float32))
+            acc.append(0.0)
+            next_episode += 1
+        acts = policy(np.stack(obs))
+        keep = []
+        for j, ((k, env), a) in enumerate(zip(live, acts, strict=True)):
+            o, r, term, trunc, _ = env.step(a)
+            acc[j] += float(r)
+            obs[j] = np.asarray(o, np.float32)
+            if term or trunc:
+                returns[k] = acc[j]
+                free.append(env)
+            else:
+                keep.append(j)
+        live = [live[j] for j in keep]
+        obs = [obs[j] for j in keep]
+        acc = [acc[j] for j in keep]
+    return returns.tolist()

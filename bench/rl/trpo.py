@@ -1,0 +1,231 @@
+"""Trust Region Policy Optimization (Schulman et al. 2015), the optimizer every learner shares.
+
+Reads top to bottom: config, advantage estimation, the natural-gradient step
+(conjugate gradient on Fisher-vector products, KL-constrained backtracking line
+search), value regression, and the training loop. The reward is pluggable: pass
+`reward_fn` and it replaces the env reward for every batch, which is how GAIfO,
+GAIL and TCN reuse this file unchanged.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import gymnasium as gym
+import numpy as np
+import torch
+
+from bench.rl.networks import GaussianPolicy, ValueNet
+from bench.rl.rollout import Batch, RewardFn, VecCollector
+
+
+@dataclass
+class TRPOConfig:
+    n_envs: int = 8
+    """Envs stepped side by side in one process (one batched policy forward per step)."""
+    steps_per_env: int = 256
+    """Steps collected from each env per update; the batch is n_envs * steps_per_env."""
+    gamma: float = 0.99
+    """Discount factor."""
+    gae_lambda: float = 0.97
+    """GAE(lambda) bias/variance trade-off."""
+    max_kl: float = 0.01
+    """Trust region: mean KL(old || new) allowed per update."""
+    cg_iters: int = 10
+    """Conjugate-gradient iterations for the natural-gradient direction."""
+    cg_damping: float = 0.1
+    """Added to the Fisher matrix's diagonal for stability."""
+    fisher_subsample: int = 4
+    """Fisher-vector products use every k-th sample: same direction, k times cheaper."""
+    line_search_steps: int = 10
+    """Backtracking halvings before the update is rejected."""
+    vf_lr: float = 1e-3
+    """Adam learning rate of the value function."""
+    vf_epochs: int = 5
+    """Passes over the batch for value regression."""
+    vf_minibatch: int = 256
+    """Value regression minibatch size."""
+    hidden: tuple[int, ...] = (64, 64)
+    """Hidden layer sizes of policy and value MLPs."""
+    init_log_std: float = -0.5
+    """Initial log standard deviation of the policy."""
+    device: str = "cpu"
+    """Where the networks live; rollouts always step on the CPU."""
+
+    @property
+    def batch_size(self) -> int:
+        return self.n_envs * self.steps_per_env
+
+
+def gae(
+    rewards: np.ndarray,
+    values: np.ndarray,
+    next_values: np.ndarray,
+    terminated: np.ndarray,
+    truncated: np.ndarray,
+    gamma: float,
+    lam: float,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Advantages and value targets, all (T, E).
+
+    `next_values` is V(s') of the true next observation, so a truncated episode
+    (time limit or end of batch) bootstraps from it and a terminated one does not.
+    """
+    delta = rewards + gamma * next_values * (1.0 - terminated) - values
+    ends = terminated | truncated
+    adv = np.zeros_like(rewards)
+    running = np.zeros(rewards.shape[1], dtype=rewards.dtype)
+    for t in reversed(range(rewards.shape[0])):
+        running = delta[t] + gamma * lam * (1.0 - ends[t]) * running
+        adv[t] = running
+    return adv, adv + values
+
+
+def conjugate_gradient(fvp: Callable[[torch.Tensor], torch.Tensor], b: torch.Tensor, iters: int) -> torch.Tensor:
+    """Approximately solve F x = b."""
+    x = torch.zeros_like(b)
+    r, p = b.clone(), b.clone()
+    rr = r @ r
+    for _ in range(iters):
+        Fp = fvp(p)
+        alpha = rr / (p @ Fp + 1e-10)
+        x += alpha * p
+        r -= alpha * Fp
+        rr_new = r @ r
+        if rr_new < 1e-10:
+            break
+        p = r + (rr_new / rr) * p
+        rr = rr_new
+    return x
+
+
+def _flat_params(module: torch.nn.Module) -> list[torch.nn.Parameter]:
+    return [p for p in module.parameters() if p.requires_grad]
+
+
+def policy_step(policy: GaussianPolicy, obs: torch.Tensor, actions: torch.Tensor, adv: torch.Tensor, cfg: TRPOConfig) -> dict[str, float]:
+    """One natural-gradient step on the surrogate advantage inside the KL trust region."""
+    params = _flat_params(policy)
+    with torch.no_grad():
+        old_mean = policy(obs)
+        old_log_std = policy.log_std.detach().clone()
+        old_logp = policy.log_prob(old_mean, actions)
+
+    def surrogate() -> torch.Tensor:
+        return (torch.exp(policy.log_prob(policy(obs), actions) - old_logp) * adv).mean()
+
+    def kl(idx: slice = slice(None)) -> torch.Tensor:
+        """Mean KL(old || new) of diagonal Gaussians, analytically."""
+        mean = policy(obs[idx])
+        om = old_mean[idx]
+        var, old_var = torch.exp(2 * policy.log_std), torch.exp(2 * old_log_std)
+        per_dim = policy.log_std - old_log_std + (old_var + (om - mean).square()) / (2 * var) - 0.5
+        return per_dim.sum(-1).mean()
+
+    loss = surrogate()
+    g = torch.cat([x.reshape(-1) for x in torch.autograd.grad(loss, params)])
+    sub = slice(None, None, cfg.fisher_subsample)
+    grad_kl = torch.cat([x.reshape(-1) for x in torch.autograd.grad(kl(sub), params, create_graph=True)])
+
+    def fvp(v: torch.Tensor) -> torch.Tensor:
+        hv = torch.autograd.grad(grad_kl @ v, params, retain_graph=True)
+        return torch.cat([x.reshape(-1) for x in hv]) + cfg.cg_damping * v
+
+    step_dir = conjugate_gradient(fvp, g, cfg.cg_iters)
+    shs = 0.5 * (step_dir @ fvp(step_dir))
+    full_step = step_dir * torch.sqrt(2 * cfg.max_kl / (2 * shs + 1e-10))
+    old = torch.nn.utils.parameters_to_vector(params).detach()
+    expected = (g @ full_step).item()
+    with torch.no_grad():
+        base = loss.item()
+        for frac in 0.5 ** np.arange(cfg.line_search_steps):
+            torch.nn.utils.vector_to_parameters(old + frac * full_step, params)
+            new_kl, improve = kl().item(), surrogate().item() - base
+            if np.isfinite(improve) and new_kl <= 1.5 * cfg.max_kl and improve > 0:
+                return {"kl": new_kl, "improvement": improve, "expected": expected * frac, "step_frac": float(frac)}
+        torch.nn.utils.vector_to_parameters(old, params)
+    return {"kl": 0.0, "improvement": 0.0, "expected": expected, "step_frac": 0.0}
+
+
+def value_step(value: ValueNet, opt: torch.optim.Optimizer, obs: torch.Tensor, targets: torch.Tensor, cfg: TRPOConfig, gen: torch.Generator) -> float:
+    n = obs.shape[0]
+    loss = torch.zeros(())
+    for _ in range(cfg.vf_epochs):
+        perm = torch.randperm(n, generator=gen)
+        for start in range(0, n, cfg.vf_minibatch):
+            idx = perm[start : start + cfg.vf_minibatch]
+            loss = (value(obs[idx]) - targets[idx]).square().mean()
+            opt.zero_grad()
+            loss.backward()
+            opt.step()
+    return loss.item()
+
+
+class TRPO:
+    """Policy, value function and their optimizer state; `update` consumes one Batch."""
+
+    def __init__(self, obs_dim: int, act_dim: int, cfg: TRPOConfig, seed: int) -> None:
+        torch.manual_seed(seed)
+        self.cfg = cfg
+        self.device = torch.device(cfg.device)
+        self.policy = GaussianPolicy(obs_dim, act_dim, cfg.hidden, cfg.init_log_std).to(self.device)
+        self.value = ValueNet(self.policy.norm, obs_dim, cfg.hidden).to(self.device)
+        self.vf_opt = torch.optim.Adam(self.value.net.parameters(), lr=cfg.vf_lr)
+        self.gen = torch.Generator().manual_seed(seed + 1)
+
+    def update(self, batch: Batch, rewards: np.ndarray) -> dict[str, float]:
+        """Normalizer, then policy, then value: one TRPO iteration on (T, E) `rewards`."""
+        cfg = self.cfg
+        self.policy.norm.update(batch.flat("obs"))
+        T, E = rewards.shape
+        obs = torch.from_numpy(batch.flat("obs")).to(self.device)
+        next_obs = torch.from_numpy(batch.flat("next_obs")).to(self.device)
+        with torch.no_grad():
+            values = self.value(obs).cpu().numpy().reshape(T, E)
+            next_values = self.value(next_obs).cpu().numpy().reshape(T, E)
+        adv, targets = gae(rewards.astype(np.float32), values, next_values, batch.terminated, batch.truncated, cfg.gamma, cfg.gae_lambda)
+        adv_t = torch.from_numpy(adv.reshape(-1)).to(self.device)
+        adv_t = (adv_t - adv_t.mean()) / (adv_t.std() + 1e-8)
+        actions = torch.from_numpy(batch.flat("actions")).to(self.device)
+        info = policy_step(self.policy, obs, actions, adv_t, cfg)
+        info["vf_loss"] = value_step(self.value, self.vf_opt, obs, torch.from_numpy(targets.reshape(-1)).to(self.device), cfg, self.gen)
+        return info
+
+
+Callback = Callable[[int, TRPO, Batch, dict[str, float]], None]
+"""callback(env_steps_so_far, learner, batch, update_info), after every update."""
+
+
+def train(
+    make_env: Callable[[int], gym.Env],
+    budget: int,
+    seed: int,
+    cfg: TRPOConfig | None = None,
+    reward_fn: RewardFn | None = None,
+    callback: Callback | None = None,
+) -> TRPO:
+    """Run TRPO for at most `budget` env steps (whole batches only) and return the learner."""
+    cfg = cfg or TRPOConfig()
+    torch.set_num_threads(1)
+    envs = [make_env(seed * 1000 + i) for i in range(cfg.n_envs)]
+    obs_dim = int(np.prod(envs[0].observation_space.shape))
+    act_dim = int(np.prod(envs[0].action_space.shape))
+    learner = TRPO(obs_dim, act_dim, cfg, seed)
+    collector = VecCollector(envs, seed * 1000)
+    steps = 0
+    try:
+        while steps + cfg.batch_size <= budget:
+            t0 = time.perf_counter()
+            batch = collector.collect(learner.policy, cfg.steps_per_env)
+            steps += batch.n_steps
+            t1 = time.perf_counter()
+            rewards = batch.rewards if reward_fn is None else reward_fn(batch)
+            info = learner.update(batch, rewards)
+            info.update(collect_s=t1 - t0, update_s=time.perf_counter() - t1)
+            if callback is not None:
+                callback(steps, learner, batch, info)
+    finally:
+        collector.close()
+    return learner
