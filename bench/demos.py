@@ -1,0 +1,135 @@
+"""Record expert demonstrations and load them as state-only `Demos` (or, for GAIL, `ActionDemos`).
+
+A demo file (.npz) stores observations per episode, final observation
+included, and separately the actions and rewards, with the env id and shapes:
+  env_id, obs_dim, act_dim       scalars
+  obs          (sum (T_i + 1), O)  episodes back to back
+  obs_lengths  (N,)                T_i + 1 per episode
+  actions      (sum T_i, A)        kept apart; read only by `load_action_demos`
+  rewards      (sum T_i,)
+"""
+
+from __future__ import annotations
+
+import hashlib
+import io
+from pathlib import Path
+
+import numpy as np
+
+from bench import envs, paths
+from bench.experts import atomic_write_bytes, load_expert
+from bench.types import ActionDemos, Demos
+
+POOL_SIZE = 25
+"""Episodes recorded per env; a trial with k demonstrations draws k of them."""
+POOL_SEED = 20_000
+"""Env seeds of the pool's episodes are POOL_SEED + i: disjoint from evaluation seeds."""
+
+
+class DemoError(ValueError):
+    """A demo file that is missing, malformed, or recorded in another env."""
+
+
+def record(env_id: str, policy, n_episodes: int, seed: int) -> dict[str, np.ndarray]:
+    """Run `policy` (numpy, deterministic) for `n_episodes` full episodes; arrays as stored."""
+    env = envs.make(env_id, seed)
+    obs_eps, act_eps, rew_eps = [], [], []
+    try:
+        for k in range(n_episodes):
+            o, _ = env.reset(seed=seed + k)
+            obs, acts, rews = [np.asarray(o, np.float32)], [], []
+            done = False
+            while not done:
+                a = policy(obs[-1][None])[0]
+                o, r, term, trunc, _ = env.step(a)
+                obs.append(np.asarray(o, np.float32))  # the true final observation too
+                acts.append(np.asarray(a, np.float32))
+                rews.append(float(r))
+                done = term or trunc
+            obs_eps.append(np.stack(obs))
+            act_eps.append(np.stack(acts))
+            rew_eps.append(np.asarray(rews, np.float32))
+    finally:
+        env.close()
+    return {
+        "env_id": np.array(env_id),
+        "obs_dim": np.array(obs_eps[0].shape[1]),
+        "act_dim": np.array(act_eps[0].shape[1]),
+        "obs": np.concatenate(obs_eps),
+        "obs_lengths": np.array([len(o) for o in obs_eps]),
+        "actions": np.concatenate(act_eps),
+        "rewards": np.concatenate(rew_eps),
+    }
+
+
+def save(path: Path, arrays: dict[str, np.ndarray]) -> Path:
+    buf = io.BytesIO()
+    np.savez(buf, **arrays)
+    atomic_write_bytes(path, buf.getvalue())
+    return path
+
+
+def pool_path(env_id: str) -> Path:
+    """Cache path of `env_id`'s pool, keyed by the expert's weights so a retrained expert re-records."""
+    digest = hashlib.sha256((paths.expert_dir(env_id) / "policy.pt").read_bytes()).hexdigest()[:12]
+    return paths.CACHE_DIR / "demos" / f"{env_id}-{digest}.npz"
+
+
+def ensure_pool(env_id: str) -> Path:
+    """Path of the expert's demonstration pool, recording it first if it is not cached."""
+    path = pool_path(env_id)
+    if not path.exists():
+        save(path, record(env_id, load_expert(env_id), POOL_SIZE, POOL_SEED))
+    return path
+
+
+def _open(path: Path, env_id: str) -> np.lib.npyio.NpzFile:
+    try:
+        data = np.load(path, allow_pickle=False)
+    except FileNotFoundError:
+        raise DemoError(f"demo file {path} does not exist") from None
+    except Exception as e:  # zip/npy format errors come in many types
+        raise DemoError(f"{path} is not a demo file ({e})") from None
+    if "env_id" not in data or "obs_lengths" not in data:
+        raise DemoError(f"{path} is not a demo file (no env_id/obs_lengths)")
+    if str(data["env_id"]) != env_id:
+        raise DemoError(f"{path} holds demonstrations of {data['env_id']}, not {env_id}")
+    return data
+
+
+def _episodes(flat: np.ndarray, lengths: np.ndarray) -> tuple[np.ndarray, ...]:
+    return tuple(np.split(flat, np.cumsum(lengths)[:-1]))
+
+
+def _pick(n_pool: int, k: int | None, seed: int) -> np.ndarray:
+    if k is None:
+        return np.arange(n_pool)
+    if not 1 <= k <= n_pool:
+        raise DemoError(f"asked for {k} demonstrations, the pool has {n_pool}")
+    # Same (k, seed) -> same episodes, whatever else the suite contains.
+    return np.sort(np.random.default_rng([seed, k]).choice(n_pool, size=k, replace=False))
+
+
+def load_demos(path: Path, env_id: str, k: int | None = None, seed: int = 0) -> Demos:
+    """State-only demonstrations: k episodes drawn by `seed` (all if k is None). Never reads actions."""
+    data = _open(path, env_id)
+    eps = _episodes(data["obs"], data["obs_lengths"])
+    idx = _pick(len(eps), k, seed)
+    return Demos(env_id, tuple(eps[i] for i in idx))
+
+
+def load_action_demos(path: Path, env_id: str, k: int | None = None, seed: int = 0) -> ActionDemos:
+    """The same episodes as `load_demos(path, env_id, k, seed)`, with the expert's actions."""
+    data = _open(path, env_id)
+    demos = load_demos(path, env_id, k, seed)
+    lengths = data["obs_lengths"]
+    acts = _episodes(data["actions"], lengths - 1)
+    idx = _pick(len(lengths), k, seed)
+    return ActionDemos(demos, tuple(acts[i] for i in idx))
+
+
+def pool_returns(path: Path, env_id: str) -> np.ndarray:
+    """Per-episode expert returns of a pool (for reports)."""
+    data = _open(path, env_id)
+    return np.array([r.sum() for r in _episodes(data["rewards"], data["obs_lengths"] - 1)])

@@ -1,0 +1,199 @@
+"""Run trials: `run_trial(spec, inputs) -> TrialResult` in a worker, `run_suite` drives them.
+
+The driver prepares each trial's inputs (demonstrations, or the expert) and
+ships them with it, so workers need no files: that is what lets the dask
+backend run trials on other machines. Only the driver writes records, one
+atomic file per finished trial, as results stream back.
+"""
+
+from __future__ import annotations
+
+import time
+import traceback
+from collections.abc import Iterator
+from dataclasses import dataclass, field
+from importlib.metadata import version
+from pathlib import Path
+from typing import Any
+
+import gymnasium as gym
+import joblib
+import numpy as np
+import torch
+from tqdm import tqdm
+
+from bench import demos, envs, experts, registry, store
+from bench.rl.rollout import evaluate
+from bench.types import CurvePoint, TrialResult, TrialSpec
+
+CURVE_POINTS = 10
+"""Learning-curve evaluations per trial (at most; when the algorithm offers checkpoints)."""
+CURVE_EPISODES = 5
+"""Episodes per learning-curve point; the final evaluation uses the suite's eval_episodes."""
+EVAL_SEED = 100_000
+"""Evaluation episodes of seed s start at env seed EVAL_SEED + 1000 s: the same for every algorithm."""
+
+
+class BudgetExceeded(RuntimeError):
+    pass
+
+
+class StepCounter(gym.Wrapper):
+    """Counts every step into a shared tally and stops the trial past its budget."""
+
+    def __init__(self, env: gym.Env, tally: list[int], budget: int) -> None:
+        super().__init__(env)
+        self.tally, self.budget = tally, budget
+
+    def step(self, action):
+        self.tally[0] += 1
+        if self.tally[0] > self.budget:
+            raise BudgetExceeded(f"algorithm took more than its budget of {self.budget} env steps")
+        return self.env.step(action)
+
+
+@dataclass
+class TrialLogger:
+    """The runner's side of `registry.Logger`: evaluates offered checkpoints on a schedule."""
+
+    eval_envs: list[gym.Env]
+    eval_seed: int
+    every: int
+    curve: list[CurvePoint] = field(default_factory=list)
+    logs: dict[str, list[float]] = field(default_factory=dict)
+    _next: int = 0
+
+    def checkpoint(self, env_steps: int, policy: registry.Policy) -> None:
+        if env_steps >= self._next:
+            rets = evaluate(policy, self.eval_envs, CURVE_EPISODES, self.eval_seed)
+            self.curve.append(CurvePoint(int(env_steps), float(np.mean(rets))))
+            self._next = env_steps + self.every
+
+    def log(self, env_steps: int, **scalars: float) -> None:
+        self.logs.setdefault("env_steps", []).append(float(env_steps))
+        for k, v in scalars.items():
+            self.logs.setdefault(k, []).append(float(v))
+
+
+def versions() -> dict[str, str]:
+    return {pkg: version(pkg) for pkg in ("ifo-bench", "torch", "gymnasium", "pybullet")}
+
+
+def trial_inputs(spec: TrialSpec) -> Any:
+    """What the trial's algorithm is handed as `demos`, according to its `inputs`."""
+    kind = registry.get(spec.algorithm).inputs
+    if kind == "none":
+        return None
+    if kind == "expert":
+        return experts.load_expert(spec.env_id)
+    pool = demos.ensure_pool(spec.env_id)
+    if kind == "states":
+        return demos.load_demos(pool, spec.env_id, spec.n_demos, spec.seed)
+    return demos.load_action_demos(pool, spec.env_id, spec.n_demos, spec.seed)
+
+
+def run_trial(spec: TrialSpec, inputs: Any, device: str = "cpu") -> TrialResult:
+    """Train `spec.algorithm` and evaluate it; never raises (a failure is a failed record)."""
+    torch.set_num_threads(1)  # joblib workers share the cores: one thread each
+    start = time.time()
+    tally = [0]
+    eval_seed = EVAL_SEED + 1000 * spec.seed
+    eval_envs: list[gym.Env] = []
+    logger = TrialLogger(eval_envs, eval_seed, every=max(1, spec.budget // CURVE_POINTS))
+    try:
+        torch.manual_seed(spec.seed)
+        algo = registry.get(spec.algorithm)
+        obs_dim, act_dim, low, high = envs.spaces(spec.env_id)
+        eval_envs += [envs.make(spec.env_id, eval_seed + i) for i in range(min(10, spec.eval_episodes))]
+        task = registry.Task(
+            spec.env_id, obs_dim, act_dim, low, high,
+            make_env=lambda s: StepCounter(envs.make(spec.env_id, s), tally, spec.budget),
+            device=device,
+        )
+        config = algo.make_config(spec.hyperparams)
+        policy = algo.train(task, inputs, spec.budget, spec.seed, logger, config)
+        returns = evaluate(policy, eval_envs, spec.eval_episodes, eval_seed)
+        if not np.all(np.isfinite(returns)):
+            raise FloatingPointError("evaluation returned a non-finite return")
+        status, tb = "ok", None
+    except Exception:
+        returns, status, tb = [], "failed", traceback.format_exc()
+    finally:
+        for env in eval_envs:
+            env.close()
+    return TrialResult(
+        spec=spec, status=status, returns=[float(r) for r in returns], curve=logger.curve,
+        env_steps=tally[0], wall_time=round(time.time() - start, 3), versions=versions(),
+        traceback=tb, logs=logger.logs,
+    )
+
+
+@dataclass(frozen=True)
+class RunSummary:
+    done: int
+    failed: int
+    skipped: int
+
+
+def pending(specs: list[TrialSpec], results_dir: Path, retry_failed: bool) -> list[TrialSpec]:
+    """Trials without a record (and failed ones too when `retry_failed`)."""
+    have = store.finished(results_dir)
+    keep = []
+    for spec in specs:
+        status = have.get(spec.trial_id)
+        if status is None or (status != "ok" and retry_failed):
+            keep.append(spec)
+    return keep
+
+
+def _jobs(specs: list[TrialSpec], device: str) -> Iterator:
+    for spec in specs:  # a generator: inputs are loaded only as workers become free
+        yield joblib.delayed(run_trial)(spec, trial_inputs(spec), device)
+
+
+def run_suite(
+    specs: list[TrialSpec],
+    results_dir: Path,
+    jobs: int = -1,
+    backend: str = "loky",
+    scheduler: str | None = None,
+    retry_failed: bool = False,
+    device: str = "cpu",
+    progress: bool = True,
+) -> RunSummary:
+    """Run every pending trial in parallel, writing each record as it finishes."""
+    todo = pending(specs, results_dir, retry_failed)
+    skipped = len(specs) - len(todo)
+    if not todo:
+        return RunSummary(0, 0, skipped)
+    for env_id in sorted({s.env_id for s in todo}):  # record demo pools once, before forking
+        if any(registry.get(s.algorithm).inputs in ("states", "actions") for s in todo if s.env_id == env_id):
+            demos.ensure_pool(env_id)
+    done = failed = 0
+    bar = tqdm(total=len(todo), desc="trials", unit="trial", disable=not progress, dynamic_ncols=True)
+    client = None
+    try:
+        if backend == "dask":
+            from distributed import Client
+
+            client = Client(scheduler) if scheduler else Client(processes=True)
+            ctx = joblib.parallel_config(backend="dask")
+        else:
+            ctx = joblib.parallel_config(backend=backend, n_jobs=jobs)
+        with ctx:
+            parallel = joblib.Parallel(n_jobs=jobs, return_as="generator_unordered", pre_dispatch="n_jobs")
+            for result in parallel(_jobs(todo, device)):
+                store.write(results_dir, result)
+                if result.status == "ok":
+                    done += 1
+                else:
+                    failed += 1
+                    last = (result.traceback or "").strip().splitlines()[-1:] or ["?"]
+                    bar.write(f"failed: {result.spec.env_id} {result.spec.algorithm} seed {result.spec.seed}: {last[0]}")
+                bar.update(1)
+                bar.set_postfix(done=done, failed=failed)
+    finally:
+        bar.close()
+        if client is not None:
+            client.close()
+    return RunSummary(done, failed, skipped)

@@ -1,0 +1,57 @@
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from bench import envs
+
+
+def rollout(env_id: str, seed: int, steps: int = 200) -> np.ndarray:
+    env = envs.make(env_id, seed)
+    obs = [env.reset(seed=seed)[0]]
+    for _ in range(steps):
+        o, _, term, trunc, _ = env.step(env.action_space.sample())
+        obs.append(o)
+        if term or trunc:
+            obs.append(env.reset()[0])
+    env.close()
+    return np.array(obs)
+
+
+@pytest.mark.parametrize("env_id", ["HopperBulletEnv-v0", "Pendulum-v1"])
+def test_same_seed_same_rollout(env_id):
+    a, b = rollout(env_id, 3), rollout(env_id, 3)
+    np.testing.assert_array_equal(a, b)
+    assert not np.array_equal(a, rollout(env_id, 4))
+
+
+def test_unknown_env_is_one_clear_error():
+    with pytest.raises(envs.EnvError, match="unknown env id 'NoSuchEnv-v0'"):
+        envs.make("NoSuchEnv-v0", 0)
+
+
+def test_discrete_actions_rejected():
+    with pytest.raises(envs.EnvError, match="Discrete action space"):
+        envs.make("CartPole-v1", 0)
+
+
+def test_spaces_of_a_plain_gymnasium_env():
+    obs_dim, act_dim, low, high = envs.spaces("Pendulum-v1")
+    assert (obs_dim, act_dim) == (3, 1)
+    assert low[0] == -2.0 and high[0] == 2.0
+
+
+def test_pybullet_noise_does_not_reach_stdout():
+    code = "from bench import envs; e = envs.make('HopperBulletEnv-v0', 0); e.step(e.action_space.sample()); print('ok')"
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout == "ok\n"
+    assert "argv[0]" not in out.stderr and "build time" not in out.stderr
+
+
+def test_cli_unknown_env_exits_2_with_one_line():
+    out = subprocess.run(
+        [sys.executable, "-m", "bench.cli", "experts", "train", "NoSuchEnv-v0"], capture_output=True, text=True
+    )
+    assert out.returncode == 2
+    assert out.stderr.strip() == "bench: error: unknown env id 'NoSuchEnv-v0'"

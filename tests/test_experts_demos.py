@@ -1,0 +1,78 @@
+import dataclasses
+
+import numpy as np
+import pytest
+
+from bench import demos, experts, paths
+from bench.rl.trpo import TRPOConfig
+from bench.types import ActionDemos, Demos
+
+
+@pytest.fixture(scope="module")
+def tiny_expert(tmp_path_factory, pendulum="InvertedPendulumBulletEnv-v0"):
+    """A barely trained pendulum expert in a throwaway experts folder."""
+    root = tmp_path_factory.mktemp("experts")
+    mp = pytest.MonkeyPatch()
+    mp.setattr(paths, "EXPERTS_DIR", root)
+    mp.setattr(paths, "CACHE_DIR", root / "cache")
+    meta = experts.train_expert(pendulum, 8192, seed=0, cfg=TRPOConfig(n_envs=4, steps_per_env=512), progress=False)
+    yield pendulum, meta
+    mp.undo()
+
+
+def test_expert_round_trip_reproduces_its_recorded_return(tiny_expert):
+    env_id, meta = tiny_expert
+    assert (paths.expert_dir(env_id) / "policy.pt").is_file()
+    for key in ("env_id", "train_steps", "wall_time_s", "seed", "package_version", "return_mean", "return_std"):
+        assert key in meta
+    policy = experts.load_expert(env_id)  # torch.load(weights_only=True) inside
+    returns = experts.evaluate_policy(policy, env_id, experts.EVAL_EPISODES, seed=10_000)
+    assert np.mean(returns) == pytest.approx(meta["return_mean"], abs=0.01)
+    assert [m["env_id"] for m in experts.list_experts()] == [env_id]
+
+
+def test_missing_expert_is_a_clear_error(tiny_expert):
+    with pytest.raises(experts.ExpertError, match="no expert for HopperBulletEnv-v0"):
+        experts.load_expert("HopperBulletEnv-v0")
+
+
+def test_demos_keep_final_observation_and_hide_actions(tiny_expert):
+    env_id, _ = tiny_expert
+    path = demos.ensure_pool(env_id)
+    state_only = demos.load_demos(path, env_id, k=3, seed=0)
+    assert isinstance(state_only, Demos) and state_only.n_episodes == 3
+    assert "actions" not in {f.name for f in dataclasses.fields(Demos)}
+    assert not hasattr(state_only, "actions")
+    with_actions = demos.load_action_demos(path, env_id, k=3, seed=0)
+    assert isinstance(with_actions, ActionDemos)
+    for obs, acts in zip(with_actions.demos.observations, with_actions.actions, strict=True):
+        assert len(obs) == len(acts) + 1  # T actions, T + 1 observations
+    for a, b in zip(state_only.observations, with_actions.demos.observations, strict=True):
+        np.testing.assert_array_equal(a, b)
+    s, s_next = state_only.transitions()
+    assert s.shape == s_next.shape and len(s) == sum(len(o) - 1 for o in state_only.observations)
+
+
+def test_demo_draw_is_deterministic_and_seed_dependent(tiny_expert):
+    env_id, _ = tiny_expert
+    path = demos.ensure_pool(env_id)
+    first = demos.load_demos(path, env_id, k=5, seed=1).observations
+    again = demos.load_demos(path, env_id, k=5, seed=1).observations
+    other = demos.load_demos(path, env_id, k=5, seed=2).observations
+    assert all(np.array_equal(a, b) for a, b in zip(first, again, strict=True))
+    assert not all(len(a) == len(b) and np.array_equal(a, b) for a, b in zip(first, other, strict=True))
+
+
+def test_demo_file_from_another_env_is_rejected(tiny_expert, tmp_path):
+    env_id, _ = tiny_expert
+    path = demos.ensure_pool(env_id)
+    with pytest.raises(demos.DemoError, match=f"holds demonstrations of {env_id}, not HopperBulletEnv-v0"):
+        demos.load_demos(path, "HopperBulletEnv-v0")
+    junk = tmp_path / "junk.npz"
+    junk.write_text("not a zip")
+    with pytest.raises(demos.DemoError, match="is not a demo file"):
+        demos.load_demos(junk, env_id)
+    with pytest.raises(demos.DemoError, match="does not exist"):
+        demos.load_demos(tmp_path / "missing.npz", env_id)
+    with pytest.raises(demos.DemoError, match="asked for 26 demonstrations"):
+        demos.load_demos(path, env_id, k=26)
