@@ -6,6 +6,8 @@ import argparse
 import sys
 from collections.abc import Callable
 
+from pathlib import Path
+
 from bench.envs import EnvError
 
 
@@ -39,12 +41,89 @@ def _experts_list(args: argparse.Namespace) -> int:
     return 0
 
 
+def _run(args: argparse.Namespace) -> int:
+    from bench.runner import run_suite
+    from bench.suite import expand, load_suite
+
+    suite = load_suite(args.suite)
+    specs = expand(suite)
+    results = Path(args.results) if args.results else Path("results") / suite.name
+    backend = args.backend or suite.runner.backend
+    jobs = args.jobs if args.jobs is not None else suite.runner.jobs
+    print(f"suite {suite.name}: {len(specs)} trials -> {results}/", file=sys.stderr)
+    summary = run_suite(
+        specs, results, jobs=jobs, backend=backend, scheduler=args.scheduler,
+        retry_failed=args.retry_failed, device=args.device,
+    )
+    print(
+        f"{summary.done} trials done, {summary.failed} failed, "
+        f"{summary.skipped} already finished (records in {results}/trials)"
+    )
+    if summary.failed:
+        print("rerun with --retry-failed to try the failed trials again", file=sys.stderr)
+    return 1 if summary.failed else 0
+
+
+def _plot(args: argparse.Namespace) -> int:
+    from bench import normalize, plot, store
+
+    root = Path(args.results_dir)
+    if not root.is_dir():
+        raise FileNotFoundError(f"no results directory {root}")
+    dirs = store.find_result_dirs(root)
+    if not dirs:
+        raise FileNotFoundError(f"no trial records under {root}")
+    for d in dirs:
+        df = normalize.normalize(store.load(d))
+        out = Path(args.out) if args.out and len(dirs) == 1 else d / "figure2.png"
+        written = plot.figure2(df, out)
+        plot.write_summary_csv(df, d / "summary.csv")
+        print(f"## {d}\n\n{plot.summary_table(df)}\n")
+        print("wrote " + ", ".join(str(p) for p in [*written, d / "summary.csv"]) + "\n")
+    return 0
+
+
+def _list(args: argparse.Namespace) -> int:
+    from bench import registry
+
+    print("algorithms:")
+    for name, algo in sorted(registry.all_algorithms().items()):
+        flag = "  (uses expert actions)" if algo.uses_actions else ""
+        print(f"  {name:12s} inputs={algo.inputs:8s} {algo.description}{flag}")
+    print()
+    return _experts_list(args)
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="bench",
         description="ifo-bench: compare imitation-from-observation algorithms on PyBullet.",
     )
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+
+    run = sub.add_parser(
+        "run", help="run a YAML suite (resumable: finished trials are skipped)",
+        description="Expand SUITE to env x demos x algorithm x seed trials and run the unfinished ones.",
+    )
+    run.add_argument("suite", help="path of a suite file, e.g. suites/quick.yaml")
+    run.add_argument("--results", metavar="DIR", help="where records go (default results/<suite name>)")
+    run.add_argument("--jobs", type=int, help="parallel trials (default: the suite's, else all cores)")
+    run.add_argument("--retry-failed", action="store_true", help="rerun trials recorded as failed")
+    run.add_argument("--backend", choices=["loky", "dask"], help="joblib backend (default: the suite's, else loky)")
+    run.add_argument("--scheduler", metavar="ADDRESS", help="dask scheduler, e.g. tcp://10.0.0.1:8786 (dask backend)")
+    run.add_argument("--device", default="cpu", help="torch device for networks, e.g. cuda (default cpu)")
+    run.set_defaults(func=_run)
+
+    plot = sub.add_parser(
+        "plot", help="draw Figure 2, write summary.csv and print a table for each suite's results",
+        description="Find every suite's records under RESULTS_DIR (experts skipped) and draw each.",
+    )
+    plot.add_argument("results_dir", help="e.g. results/ or results/quick")
+    plot.add_argument("--out", metavar="FILE", help="figure path (.png; a .pdf is written beside it)")
+    plot.set_defaults(func=_plot)
+
+    lst = sub.add_parser("list", help="registered algorithms and available experts")
+    lst.set_defaults(func=_list)
 
     experts = sub.add_parser("experts", help="train and list TRPO experts")
     esub = experts.add_subparsers(dest="experts_command", required=True, metavar="ACTION")
@@ -60,7 +139,15 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-USER_ERRORS: tuple[type[Exception], ...] = (EnvError,)
+def _user_errors() -> tuple[type[Exception], ...]:
+    """Exceptions that mean bad input: printed as one line, exit status 2."""
+    from bench.demos import DemoError
+    from bench.experts import ExpertError
+    from bench.normalize import NormalizationError
+    from bench.registry import RegistryError
+    from bench.suite import SuiteError
+
+    return (EnvError, SuiteError, RegistryError, ExpertError, DemoError, NormalizationError, FileNotFoundError)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -68,7 +155,7 @@ def main(argv: list[str] | None = None) -> int:
     func: Callable[[argparse.Namespace], int] = args.func
     try:
         return func(args)
-    except USER_ERRORS as e:
+    except _user_errors() as e:
         print(f"bench: error: {e}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:

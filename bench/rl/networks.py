@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import copy
 import math
 
 import numpy as np
@@ -97,7 +98,7 @@ class DeterministicPolicy:
     """
 
     def __init__(self, policy: GaussianPolicy, low: np.ndarray, high: np.ndarray) -> None:
-        self.policy = policy.cpu().eval()
+        self.policy = copy.deepcopy(policy).cpu().eval()  # a snapshot: training goes on without it
         self.low, self.high = np.asarray(low, np.float32), np.asarray(high, np.float32)
 
     @torch.no_grad()

@@ -205,14 +205,19 @@ def train(
     cfg: TRPOConfig | None = None,
     reward_fn: RewardFn | None = None,
     callback: Callback | None = None,
+    learner: TRPO | None = None,
 ) -> TRPO:
-    """Run TRPO for at most `budget` env steps (whole batches only) and return the learner."""
-    cfg = cfg or TRPOConfig()
+    """Run TRPO for at most `budget` env steps (whole batches only) and return the learner.
+
+    Pass `learner` to train one built beforehand (e.g. so a discriminator can
+    share its observation normalizer); its config then overrides `cfg`.
+    """
+    cfg = learner.cfg if learner is not None else cfg or TRPOConfig()
     torch.set_num_threads(1)
     envs = [make_env(seed * 1000 + i) for i in range(cfg.n_envs)]
     obs_dim = int(np.prod(envs[0].observation_space.shape))
     act_dim = int(np.prod(envs[0].action_space.shape))
-    learner = TRPO(obs_dim, act_dim, cfg, seed)
+    learner = learner or TRPO(obs_dim, act_dim, cfg, seed)
     collector = VecCollector(envs, seed * 1000)
     steps = 0
     try:
