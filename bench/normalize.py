@@ -1,0 +1,58 @@
+"""Normalized return: 0 is the random policy, 1 is the expert, per env.
+
+    normalized = (R - R_random) / (R_expert - R_random)
+
+R_random and R_expert are the mean returns of the ok trials of the `random`
+and `expert` algorithms on that env, taken from the same frame, so a suite's
+numbers depend only on its own records.
+"""
+
+from __future__ import annotations
+
+import pandas as pd
+
+RANDOM, EXPERT = "random", "expert"
+
+
+class NormalizationError(ValueError):
+    """An env without a usable random or expert reference; the message is one line."""
+
+
+def reference_returns(df: pd.DataFrame) -> pd.DataFrame:
+    """One row per env of `df`: env_id, random, expert (mean returns; NaN where missing)."""
+    ok = df["status"] == "ok" if "status" in df else pd.Series(True, index=df.index)
+    refs = df[ok & df["algorithm"].isin([RANDOM, EXPERT])]
+    means = refs.groupby(["env_id", "algorithm"])["return"].mean().unstack("algorithm")
+    envs = pd.Index(df["env_id"].unique(), name="env_id")
+    return (
+        means.reindex(index=envs, columns=[RANDOM, EXPERT]).rename_axis(columns=None).reset_index()
+    )
+
+
+def normalize(df: pd.DataFrame, references: pd.DataFrame | None = None) -> pd.DataFrame:
+    """`df` plus a `normalized` column (NaN where `return` is NaN, e.g. failed trials).
+
+    `references` (from `reference_returns`) defaults to those of `df` itself;
+    pass the trials' references to normalize a frame of learning curves.
+    Raises NormalizationError if an env of `df` lacks a reference, or if its
+    expert does no better than random (the scale would be meaningless).
+    """
+    refs = reference_returns(df) if references is None else references
+    refs = refs.set_index("env_id")
+    for env_id in df["env_id"].unique():
+        if env_id not in refs.index:
+            raise NormalizationError(f"{env_id}: no random or expert trials to normalize against")
+        random, expert = refs.loc[env_id, RANDOM], refs.loc[env_id, EXPERT]
+        missing = [name for name, value in ((RANDOM, random), (EXPERT, expert)) if pd.isna(value)]
+        if missing:
+            raise NormalizationError(
+                f"{env_id}: no ok trial of {' or '.join(missing)} to normalize against"
+                f" (add {' and '.join(missing)} to the suite's algorithms)"
+            )
+        if expert <= random:
+            raise NormalizationError(
+                f"{env_id}: expert return {expert:.4g} is not above random {random:.4g}"
+            )
+    random = df["env_id"].map(refs[RANDOM])
+    expert = df["env_id"].map(refs[EXPERT])
+    return df.assign(normalized=(df["return"] - random) / (expert - random))

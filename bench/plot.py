@@ -1,0 +1,337 @@
+"""Figures and tables from the tidy normalized frame (store.load -> normalize).
+
+Nothing here computes a statistic beyond grouping: means and standard
+deviations over seeds are seaborn's or pandas'. Figures are built on
+`matplotlib.figure.Figure` directly (rendered by Agg), not pyplot, so drawing
+needs no display and leaves no global state behind.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable
+from pathlib import Path
+
+import pandas as pd
+import seaborn as sns
+from matplotlib.axes import Axes
+from matplotlib.figure import Figure
+from matplotlib.lines import Line2D
+from matplotlib.patches import Patch
+
+from bench import registry
+from bench.envs import PAPER_ENVS
+
+REFERENCES = ("random", "expert")
+"""Normalized to 0 and 1 by construction: drawn as lines, not bars."""
+PAPER_ALGORITHMS = ("gaifo", "gail", "bco", "tcn", "survival")
+"""Fixed order and colors; other algorithms follow alphabetically."""
+LABELS = {
+    "gaifo": "GAIfO",
+    "gail": "GAIL",
+    "bco": "BCO",
+    "tcn": "TCN",
+    "survival": "Survival",
+    "random": "Random",
+    "expert": "Expert",
+}
+ACTIONS_FOOTNOTE = "* has access to expert actions"
+PALETTE = "colorblind"
+DPI = 200
+REFERENCE_LINES = {"random": ("0.45", "Random (0)"), "expert": ("0.1", "Expert (1)")}
+
+
+# ---------------------------------------------------------------- order, names, colors
+
+
+def env_order(env_ids: Iterable[str]) -> list[str]:
+    """The paper's env order for the envs it has, then the others alphabetically."""
+    env_ids = set(env_ids)
+    return [e for e in PAPER_ENVS if e in env_ids] + sorted(env_ids - set(PAPER_ENVS))
+
+
+def env_label(env_id: str) -> str:
+    """'HopperBulletEnv-v0' -> 'Hopper'; other ids lose only their version."""
+    name = env_id.rsplit("-v", 1)[0]
+    return name.removesuffix("BulletEnv") or env_id
+
+
+def algorithm_order(names: Iterable[str]) -> list[str]:
+    """Learners in the paper's order, then others alphabetically; references left out."""
+    names = set(names) - set(REFERENCES)
+    return [a for a in PAPER_ALGORITHMS if a in names] + sorted(names - set(PAPER_ALGORITHMS))
+
+
+def algorithm_colors(names: Iterable[str]) -> dict[str, tuple[float, float, float]]:
+    """A color per learner; the paper's algorithms keep theirs whatever else is plotted."""
+    order = algorithm_order(names)
+    others = [a for a in order if a not in PAPER_ALGORITHMS]
+    slots = {a: i for i, a in enumerate(PAPER_ALGORITHMS)}
+    slots |= {a: len(PAPER_ALGORITHMS) + i for i, a in enumerate(others)}
+    palette = sns.color_palette(PALETTE, max(slots.values(), default=0) + 1)
+    return {a: palette[slots[a]] for a in order}
+
+
+def uses_actions(name: str) -> bool:
+    """Whether the algorithm sees expert actions (registry), falling back to name == 'gail'."""
+    try:
+        return registry.get(name).uses_actions
+    except (registry.RegistryError, ImportError):
+        return name == "gail"
+
+
+def algorithm_label(name: str) -> str:
+    return LABELS.get(name, name) + ("*" if uses_actions(name) else "")
+
+
+def repeat_demo_free(df: pd.DataFrame) -> pd.DataFrame:
+    """Rows of algorithms seen only with n_demos=0, copied to every positive demo count in `df`."""
+    demos = sorted(n for n in df["n_demos"].unique() if n > 0)
+    demo_free = df.groupby("algorithm")["n_demos"].transform("max") == 0
+    if not demos or not demo_free.any():
+        return df
+    copies = [df[demo_free].assign(n_demos=n) for n in demos]
+    return pd.concat([df[~demo_free], *copies], ignore_index=True)
+
+
+# ---------------------------------------------------------------- Figure 2
+
+
+def draw_figure2(df: pd.DataFrame) -> Figure:
+    """The paper's Figure 2: per env, normalized return against number of demonstrations.
+
+    One bar per learner and demo count: mean over seeds, error bar one
+    standard deviation. Learners that take no demonstrations (n_demos=0,
+    e.g. survival) score the same at every count, so their bar repeats.
+    Needs columns env_id, algorithm, n_demos, normalized.
+    """
+    learners = repeat_demo_free(df[~df["algorithm"].isin(REFERENCES)])
+    if learners.empty:
+        raise ValueError("no trials of a learning algorithm to plot (only random/expert)")
+    envs = env_order(learners["env_id"].unique())
+    algos = algorithm_order(learners["algorithm"].unique())
+    demos = sorted(learners["n_demos"].unique())
+    colors = algorithm_colors(algos)
+
+    with sns.axes_style("whitegrid"), sns.plotting_context("paper"):
+        fig, axes = _panels(len(envs), width=2.35, height=1.9)  # 3 across = 7 in, a page
+        for ax, env_id in zip(axes, envs, strict=False):
+            sns.barplot(
+                data=learners[learners["env_id"] == env_id],
+                x="n_demos",
+                y="normalized",
+                hue="algorithm",
+                order=demos,
+                hue_order=algos,
+                palette=colors,
+                errorbar="sd",
+                capsize=0.2,
+                err_kws={"linewidth": 0.8, "color": "0.15"},
+                saturation=1.0,
+                legend=False,
+                ax=ax,
+            )
+            _reference_lines(ax)
+            ax.set_title(env_label(env_id))
+            ax.set_xlabel("")
+            ax.set_ylabel("")
+            ax.grid(axis="x", visible=False)
+        fig.supxlabel("Number of demonstration trajectories", fontsize="medium")
+        fig.supylabel("Normalized return", fontsize="medium")
+        handles = [Patch(facecolor=colors[a], label=algorithm_label(a)) for a in algos]
+        _legend_and_titles(
+            fig, handles, "Imitation performance vs. number of demonstrations", algos
+        )
+    return fig
+
+
+def figure2(df: pd.DataFrame, out: str | Path) -> list[Path]:
+    """Draw Figure 2 and write it as `out`.png (dpi 200) and `out`.pdf; return both paths."""
+    return save(draw_figure2(df), out)
+
+
+# ---------------------------------------------------------------- later-report figures
+
+
+def draw_learning_curves(curves: pd.DataFrame, n_demos: int | None = None) -> Figure:
+    """Per env, normalized return against env steps: mean over seeds, band one std.
+
+    `curves` is store.load_curves normalized with the trials' references;
+    `n_demos` defaults to the largest demonstration count in it.
+    """
+    learners = curves[~curves["algorithm"].isin(REFERENCES)]
+    if learners.empty:
+        raise ValueError("no learning curves to plot")
+    n_demos = learners["n_demos"].max() if n_demos is None else n_demos
+    learners = learners[learners["n_demos"] == n_demos]
+    envs = env_order(learners["env_id"].unique())
+    algos = algorithm_order(learners["algorithm"].unique())
+    colors = algorithm_colors(algos)
+
+    with sns.axes_style("whitegrid"), sns.plotting_context("paper"):
+        fig, axes = _panels(len(envs), width=2.35, height=1.9)
+        for ax, env_id in zip(axes, envs, strict=False):
+            sns.lineplot(
+                data=learners[learners["env_id"] == env_id],
+                x="env_steps",
+                y="normalized",
+                hue="algorithm",
+                hue_order=algos,
+                palette=colors,
+                errorbar="sd",
+                legend=False,
+                ax=ax,
+            )
+            _reference_lines(ax)
+            ax.set_title(env_label(env_id))
+            ax.set_xlabel("")
+            ax.set_ylabel("")
+            ax.ticklabel_format(axis="x", style="sci", scilimits=(0, 0), useMathText=True)
+        fig.supxlabel("Environment steps", fontsize="medium")
+        fig.supylabel("Normalized return", fontsize="medium")
+        handles = [Line2D([], [], color=colors[a], label=algorithm_label(a)) for a in algos]
+        _legend_and_titles(fig, handles, f"Learning curves with {n_demos} demonstrations", algos)
+    return fig
+
+
+def learning_curves(
+    curves: pd.DataFrame, out: str | Path, n_demos: int | None = None
+) -> list[Path]:
+    return save(draw_learning_curves(curves, n_demos), out)
+
+
+def draw_performance_profile(profile: pd.DataFrame) -> Figure:
+    """Score distributions from stats.performance_profile: fraction of runs above tau, with CI band."""
+    algos = algorithm_order(profile["algorithm"].unique())
+    colors = algorithm_colors(algos)
+    with sns.axes_style("whitegrid"), sns.plotting_context("paper"):
+        fig = Figure(figsize=(3.6, 2.8), layout="constrained")
+        ax = fig.subplots()
+        for a in algos:
+            rows = profile[profile["algorithm"] == a].sort_values("tau")
+            ax.plot(rows["tau"], rows["fraction"], color=colors[a], label=algorithm_label(a))
+            ax.fill_between(rows["tau"], rows["lo"], rows["hi"], color=colors[a], alpha=0.2, lw=0)
+        ax.set_xlabel(r"Normalized score $\tau$")
+        ax.set_ylabel(r"Fraction of runs with score $> \tau$")
+        ax.set_ylim(-0.02, 1.02)  # lines at exactly 0 or 1 stay visible
+        ax.legend(frameon=False)
+        if any(uses_actions(a) for a in algos):
+            ax.set_title(ACTIONS_FOOTNOTE, loc="right", fontsize="small", color="0.3")
+    return fig
+
+
+def performance_profile_plot(profile: pd.DataFrame, out: str | Path) -> list[Path]:
+    return save(draw_performance_profile(profile), out)
+
+
+# ---------------------------------------------------------------- tables
+
+
+def summary_table(df: pd.DataFrame) -> str:
+    """Markdown: normalized mean ± std over seeds, a row per env and algorithm, a column per demo count."""
+    agg = df.groupby(["env_id", "algorithm", "n_demos"])["normalized"].agg(["mean", "std"])
+    cells = agg.apply(lambda r: _mean_std(r["mean"], r["std"]), axis=1)
+    cells = cells.unstack("n_demos", fill_value="")
+    demos = sorted(df["n_demos"].unique())
+    algos = algorithm_order(df["algorithm"].unique()) + [
+        a for a in REFERENCES if a in set(df["algorithm"])
+    ]
+    header = ["env", "algorithm"] + [_demos_header(n) for n in demos]
+    lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
+    for env_id in env_order(df["env_id"].unique()):
+        for a in algos:
+            if (env_id, a) not in cells.index:
+                continue
+            values = cells.loc[(env_id, a), demos].tolist()
+            lines.append("| " + " | ".join([env_label(env_id), algorithm_label(a), *values]) + " |")
+    if any(uses_actions(a) for a in algos):
+        lines += ["", ACTIONS_FOOTNOTE]
+    return "\n".join(lines) + "\n"
+
+
+def write_summary_csv(df: pd.DataFrame, path: str | Path) -> Path:
+    """One row per trial: env, algorithm, demos, seed, return, normalized."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    table = df.rename(columns={"env_id": "env", "n_demos": "demos"})
+    columns = ["env", "algorithm", "demos", "seed", "return", "normalized"]
+    table[columns].sort_values(columns[:4]).to_csv(path, index=False)
+    return path
+
+
+# ---------------------------------------------------------------- helpers
+
+
+def save(fig: Figure, out: str | Path) -> list[Path]:
+    """Write `fig` as out.png (dpi 200) and out.pdf, whatever suffix `out` has."""
+    out = Path(out)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    paths = [out.with_suffix(".png"), out.with_suffix(".pdf")]
+    for path in paths:
+        fig.savefig(path, dpi=DPI, bbox_inches="tight")
+    return paths
+
+
+def _panels(n: int, width: float, height: float) -> tuple[Figure, list[Axes]]:
+    """A grid of n panels, at most 3 per row; unused cells removed."""
+    ncols = min(3, n)
+    nrows = math.ceil(n / ncols)
+    width *= {1: 1.4, 2: 1.2, 3: 1.0}[ncols]  # room for the title and legend when few panels
+    fig = Figure(figsize=(width * ncols, height * nrows + 0.9), layout="constrained")
+    # One y scale for all: normalized returns are comparable across envs by design.
+    axes = list(fig.subplots(nrows, ncols, squeeze=False, sharey=True).flat)
+    for ax in axes[n:]:
+        fig.delaxes(ax)
+    return fig, axes[:n]
+
+
+def _reference_lines(ax: Axes) -> None:
+    """Dashed lines at 0 (random) and 1 (expert), both kept in view."""
+    for level, name in enumerate(REFERENCES):
+        color, _ = REFERENCE_LINES[name]
+        ax.axhline(level, color=color, linestyle="--", linewidth=1.0, zorder=0.5)
+    lo, hi = ax.get_ylim()
+    ax.set_ylim(min(lo, -0.1), max(hi, 1.1))
+
+
+def _legend_and_titles(fig: Figure, handles: list, title: str, algos: list[str]) -> None:
+    """Suptitle on top; legend, then any footnote, under the figure.
+
+    The legend hangs below the canvas (save uses bbox_inches="tight") because
+    constrained layout stacks an "outside" legend on top of supxlabel/suptitle.
+    """
+    handles = handles + [
+        Line2D([], [], color=color, linestyle="--", linewidth=1.0, label=label)
+        for color, label in REFERENCE_LINES.values()
+    ]
+    legend = fig.legend(
+        handles=handles,
+        loc="upper center",
+        bbox_to_anchor=(0.5, 0.0),
+        ncol=_legend_columns(len(handles), panels_across=min(3, len(fig.axes))),
+        frameon=False,
+        handlelength=1.6,
+        columnspacing=1.2,
+    )
+    fig.suptitle(title, fontweight="bold")
+    if any(uses_actions(a) for a in algos):
+        fig.draw_without_rendering()  # lay out, so the legend's extent is known
+        box = legend.get_window_extent().transformed(fig.transFigure.inverted())
+        fig.text(
+            box.x1, box.y0, ACTIONS_FOOTNOTE, ha="right", va="top", fontsize="small", color="0.3"
+        )
+
+
+def _legend_columns(entries: int, panels_across: int) -> int:
+    """As few legend rows as fit: about 3 entries per panel width, at most 8 per row."""
+    per_row = min(8, 3 * panels_across)
+    rows = math.ceil(entries / per_row)
+    return math.ceil(entries / rows)
+
+
+def _demos_header(n: int) -> str:
+    return "no demos" if n == 0 else f"{n} demo" if n == 1 else f"{n} demos"
+
+
+def _mean_std(mean: float, std: float) -> str:
+    return f"{mean:.2f}" if pd.isna(std) else f"{mean:.2f} ± {std:.2f}"

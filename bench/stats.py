@@ -1,0 +1,211 @@
+"""Aggregate statistics with rliable, from the tidy normalized frame.
+
+rliable's contract is `dict[algorithm] -> array(runs x tasks)`; here runs are
+seeds and tasks are envs, at one demonstration count. `score_dict` builds it;
+the rest are thin wrappers that turn rliable's answers into tidy frames.
+Intervals are 95% stratified-bootstrap CIs (percentile method).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import inspect
+import warnings
+from collections.abc import Callable, Iterator, Sequence
+from types import ModuleType
+
+import numpy as np
+import pandas as pd
+
+from bench.normalize import EXPERT, RANDOM
+
+
+def _import_rliable() -> tuple[ModuleType, ModuleType]:
+    """Import rliable, bridging arch <= 7.2 to pandas >= 3.
+
+    rliable imports arch.bootstrap; arch 7.2 decorates a method at import time
+    with pandas' private `deprecate_kwarg(old, new)`, which pandas 3 changed to
+    `deprecate_kwarg(klass, old, new)` (pandas-dev/pandas#61468; the same break
+    as statsmodels/statsmodels#9614), so the import fails with "missing 1
+    required positional argument: 'new_arg_name'". For the import only, accept
+    the old call form; nothing else changes, and with a fixed arch this is a no-op.
+    """
+    import pandas.util._decorators as decorators
+
+    original = decorators.deprecate_kwarg
+    needs_bridge = "klass" in inspect.signature(original).parameters
+
+    def old_form(*args, **kwargs):
+        if args and isinstance(args[0], str):
+            return original(FutureWarning, *args, **kwargs)
+        return original(*args, **kwargs)
+
+    if needs_bridge:
+        decorators.deprecate_kwarg = old_form
+    try:
+        from rliable import library, metrics
+    finally:
+        decorators.deprecate_kwarg = original
+    return library, metrics
+
+
+rly, metrics = _import_rliable()
+
+REFERENCES = (RANDOM, EXPERT)
+
+METRICS: dict[str, Callable[[np.ndarray], float]] = {
+    "mean": metrics.aggregate_mean,
+    "median": metrics.aggregate_median,
+    "iqm": metrics.aggregate_iqm,
+}
+
+
+def score_dict(
+    df: pd.DataFrame,
+    n_demos: int,
+    algorithms: Sequence[str] | None = None,
+    column: str = "normalized",
+) -> dict[str, np.ndarray]:
+    """{algorithm: (seeds x envs) array of `column`} for the trials with `n_demos` demos.
+
+    Learners that take no demonstrations (only n_demos=0 rows, e.g. survival)
+    are included at any `n_demos`; random and expert only when named in
+    `algorithms` (or when n_demos=0). Every algorithm gets the same envs, in sorted order (envs some algorithm
+    lacks are dropped), and for each algorithm only the seeds that have a
+    score on every env (failed or missing runs drop the seed). Each drop is
+    reported with warnings.warn. Algorithms come in sorted order unless given.
+    """
+    # Algorithms that take no demonstrations (n_demos=0 only) compete at every count;
+    # random and expert are left out, being 0 and 1 by construction.
+    demo_free = df.groupby("algorithm")["n_demos"].transform("max") == 0
+    at_count = df["n_demos"] == n_demos
+    if algorithms is None:
+        frame = df[at_count | (demo_free & ~df["algorithm"].isin(REFERENCES))]
+    else:
+        frame = df[df["algorithm"].isin(algorithms) & (at_count | demo_free)]
+    if frame.empty:
+        have = ", ".join(map(str, sorted(df["n_demos"].unique())))
+        raise ValueError(f"no scores with n_demos={n_demos} (have: {have or 'none'})")
+    names = list(algorithms) if algorithms is not None else sorted(frame["algorithm"].unique())
+
+    envs_of = {a: set(frame.loc[frame["algorithm"] == a, "env_id"]) for a in names}
+    absent = [a for a, own in envs_of.items() if not own]
+    if absent:
+        raise ValueError(f"no scores with n_demos={n_demos} for {', '.join(absent)}")
+    envs = sorted(set.intersection(*envs_of.values()))
+    if not envs:
+        raise ValueError(f"no env has scores of every algorithm with n_demos={n_demos}")
+    for name, own in envs_of.items():
+        if own - set(envs):
+            warnings.warn(
+                f"{name}: dropped env(s) {sorted(own - set(envs))} that other algorithms lack",
+                stacklevel=2,
+            )
+
+    scores = {}
+    for name in names:
+        rows = frame[frame["algorithm"] == name]
+        if rows.duplicated(["seed", "env_id"]).any():
+            raise ValueError(f"{name}: several trials per seed and env; filter to one suite first")
+        table = rows.pivot(index="seed", columns="env_id", values=column).reindex(columns=envs)
+        complete = table.dropna()
+        dropped = sorted(set(table.index) - set(complete.index))
+        if dropped:
+            warnings.warn(
+                f"{name}: dropped seed(s) {dropped} without a score on every env"
+                f" (failed or not run); {len(complete)} left",
+                stacklevel=2,
+            )
+        if len(complete):
+            scores[name] = complete.sort_index().to_numpy(dtype=float)
+    return scores
+
+
+def aggregate_scores(
+    scores: dict[str, np.ndarray], reps: int = 2000, seed: int = 0
+) -> pd.DataFrame:
+    """Mean, median and IQM per algorithm with 95% CIs: algorithm, metric, estimate, lo, hi."""
+
+    def aggregate(x: np.ndarray) -> np.ndarray:
+        return np.array([f(x) for f in METRICS.values()])
+
+    with _seeded(seed):
+        points, intervals = rly.get_interval_estimates(scores, aggregate, reps=reps)
+    return pd.DataFrame(
+        [
+            {
+                "algorithm": name,
+                "metric": metric,
+                "estimate": float(points[name][i]),
+                "lo": float(intervals[name][0, i]),
+                "hi": float(intervals[name][1, i]),
+            }
+            for name in scores
+            for i, metric in enumerate(METRICS)
+        ]
+    )
+
+
+def probability_of_improvement(
+    scores: dict[str, np.ndarray], target: str = "gaifo", reps: int = 2000, seed: int = 0
+) -> pd.DataFrame:
+    """P(target > other), averaged over envs, for each other algorithm: algorithm, other, estimate, lo, hi."""
+    if target not in scores:
+        raise ValueError(f"{target!r} not among the algorithms ({', '.join(scores)})")
+    pairs = {other: (scores[target], s) for other, s in scores.items() if other != target}
+    with _seeded(seed):
+        points, intervals = rly.get_interval_estimates(
+            pairs, metrics.probability_of_improvement, reps=reps
+        )
+    return pd.DataFrame(
+        [
+            {
+                "algorithm": target,
+                "other": other,
+                "estimate": float(np.squeeze(points[other])),
+                "lo": float(np.squeeze(intervals[other][0])),
+                "hi": float(np.squeeze(intervals[other][1])),
+            }
+            for other in pairs
+        ],
+        columns=["algorithm", "other", "estimate", "lo", "hi"],
+    )
+
+
+def performance_profile(
+    scores: dict[str, np.ndarray], taus: Sequence[float], reps: int = 2000, seed: int = 0
+) -> pd.DataFrame:
+    """Fraction of runs (all seeds x envs) scoring above each tau: algorithm, tau, fraction, lo, hi."""
+    taus = np.asarray(taus, dtype=float)
+    with _seeded(seed):
+        profiles, intervals = rly.create_performance_profile(scores, taus, reps=reps)
+    return pd.DataFrame(
+        [
+            {
+                "algorithm": name,
+                "tau": float(tau),
+                "fraction": float(profiles[name][i]),
+                "lo": float(intervals[name][0, i]),
+                "hi": float(intervals[name][1, i]),
+            }
+            for name in scores
+            for i, tau in enumerate(taus)
+        ]
+    )
+
+
+@contextlib.contextmanager
+def _seeded(seed: int) -> Iterator[None]:
+    """Seed the global NumPy RNG for the block, then put it back.
+
+    rliable 1.2's bootstraps draw their resampling indices with np.random.choice
+    (library.py, update_indices), not with their random_state, so the global
+    RNG is what fixes the intervals. (arch also deprecates random_state, so we
+    do not pass one.)
+    """
+    saved = np.random.get_state()
+    np.random.seed(seed)
+    try:
+        yield
+    finally:
+        np.random.set_state(saved)

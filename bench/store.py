@@ -1,0 +1,223 @@
+"""Per-trial records on disk, and the tidy DataFrames read from them.
+
+Layout: `<results_dir>/trials/<trial_id>.json`, one `TrialResult` per file.
+A record appears under its final name only once complete (temp file in the
+same folder, fsync, atomic rename), so a killed run leaves at worst a stray
+`*.tmp`, which readers ignore and the next write or scan removes. A trial is
+finished exactly when its record exists; resuming a suite is skipping those.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import dataclasses
+import json
+import math
+import os
+import tempfile
+import time
+import warnings
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from bench.types import CurvePoint, TrialResult, TrialSpec
+
+TRIALS = "trials"
+STALE_TMP_SECONDS = 600.0
+"""A *.tmp older than this is a dead writer's; younger ones may belong to a live worker."""
+
+SPEC_COLUMNS = ["suite", "env_id", "algorithm", "n_demos", "seed"]
+TRIAL_COLUMNS = [
+    *SPEC_COLUMNS,
+    "trial_id",
+    "status",
+    "return",
+    "return_std",
+    "env_steps",
+    "wall_time",
+]
+CURVE_COLUMNS = ["trial_id", *SPEC_COLUMNS, "env_steps", "return"]
+LOG_COLUMNS = ["trial_id", *SPEC_COLUMNS, "key", "index", "value"]
+
+
+def trials_dir(results_dir: str | Path) -> Path:
+    return Path(results_dir) / TRIALS
+
+
+def record_path(results_dir: str | Path, trial_id: str) -> Path:
+    return trials_dir(results_dir) / f"{trial_id}.json"
+
+
+def write(results_dir: str | Path, result: TrialResult) -> Path:
+    """Write `result` atomically to `<results_dir>/trials/<trial_id>.json`; return that path."""
+    folder = trials_dir(results_dir)
+    folder.mkdir(parents=True, exist_ok=True)
+    _remove_stale_tmp(folder)
+    text = json.dumps(_finite(dataclasses.asdict(result)), allow_nan=False, indent=1)
+    final = record_path(results_dir, result.trial_id)
+    fd, tmp = tempfile.mkstemp(dir=folder, prefix=f"{result.trial_id}.", suffix=".tmp")
+    try:
+        with os.fdopen(fd, "w") as f:
+            f.write(text)
+            f.flush()
+            os.fsync(f.fileno())
+        os.replace(tmp, final)
+    except BaseException:
+        with contextlib.suppress(OSError):
+            os.unlink(tmp)
+        raise
+    _fsync_dir(folder)
+    return final
+
+
+def read(path: str | Path) -> TrialResult:
+    """Rebuild a TrialResult (with its TrialSpec and CurvePoints) from a record."""
+    raw = json.loads(Path(path).read_text())
+    return TrialResult(
+        spec=TrialSpec(**raw["spec"]),
+        status=raw["status"],
+        returns=[_float(r) for r in raw["returns"]],
+        curve=[CurvePoint(p["env_steps"], _float(p["mean_return"])) for p in raw["curve"]],
+        env_steps=raw["env_steps"],
+        wall_time=_float(raw["wall_time"]),
+        versions=raw["versions"],
+        traceback=raw.get("traceback"),
+        logs={k: [_float(v) for v in vs] for k, vs in raw.get("logs", {}).items()},
+    )
+
+
+def finished(results_dir: str | Path) -> dict[str, str]:
+    """trial_id -> status ("ok" or "failed") of every readable record."""
+    return {r.trial_id: r.status for r in _scan(results_dir)}
+
+
+def load(results_dir: str | Path) -> pd.DataFrame:
+    """One row per trial: TRIAL_COLUMNS; `return` is the mean evaluation return (NaN if failed)."""
+    rows = [_trial_row(r) for r in _scan(results_dir)]
+    return _frame(rows, TRIAL_COLUMNS, ["env_id", "algorithm", "n_demos", "seed", "trial_id"])
+
+
+def load_curves(results_dir: str | Path) -> pd.DataFrame:
+    """One row per evaluation point of every ok trial: CURVE_COLUMNS.
+
+    Failed trials are left out: their curves stop early, and mixing them in
+    would change the number of seeds behind each point along the curve.
+    """
+    rows = [
+        {**_spec_row(r), "env_steps": p.env_steps, "return": p.mean_return}
+        for r in _scan(results_dir)
+        if r.status == "ok"
+        for p in r.curve
+    ]
+    return _frame(rows, CURVE_COLUMNS, ["env_id", "algorithm", "n_demos", "seed", "env_steps"])
+
+
+def load_logs(results_dir: str | Path) -> pd.DataFrame:
+    """Algorithm diagnostics, long format: LOG_COLUMNS; `index` counts entries per key."""
+    rows = [
+        {**_spec_row(r), "key": key, "index": i, "value": v}
+        for r in _scan(results_dir)
+        for key, values in r.logs.items()
+        for i, v in enumerate(values)
+    ]
+    return _frame(rows, LOG_COLUMNS, ["env_id", "algorithm", "n_demos", "seed", "key", "index"])
+
+
+def find_result_dirs(root: str | Path) -> list[Path]:
+    """Every folder under `root` (itself included) that holds a trials/ folder; experts/ skipped."""
+    if Path(root).name == "experts":
+        return []
+    found = []
+    for folder, subdirs, _ in os.walk(root):
+        if TRIALS in subdirs:
+            found.append(Path(folder))
+        # Prune: never descend into expert folders, nor into trials/ (records only).
+        subdirs[:] = sorted(d for d in subdirs if d not in ("experts", TRIALS))
+    return sorted(found)
+
+
+# ---------------------------------------------------------------- helpers
+
+
+def _scan(results_dir: str | Path) -> Iterator[TrialResult]:
+    """Every readable record, in file-name order; unreadable ones are warned about and skipped."""
+    folder = trials_dir(results_dir)
+    if not folder.is_dir():
+        return
+    _remove_stale_tmp(folder)
+    for path in sorted(folder.glob("*.json")):
+        try:
+            result = read(path)
+        except (OSError, ValueError, KeyError, TypeError) as e:  # JSONDecodeError is a ValueError
+            warnings.warn(f"skipping unreadable trial record {path}: {e!r}", stacklevel=2)
+            continue
+        if result.trial_id != path.stem:
+            # A renamed file, or TrialSpec gained a field: the record is still good.
+            warnings.warn(
+                f"{path}: spec hashes to {result.trial_id}, not to its file name", stacklevel=2
+            )
+        yield result
+
+
+def _spec_row(r: TrialResult) -> dict[str, Any]:
+    return {"trial_id": r.trial_id, **{c: getattr(r.spec, c) for c in SPEC_COLUMNS}}
+
+
+def _trial_row(r: TrialResult) -> dict[str, Any]:
+    returns = np.asarray(r.returns, dtype=float)
+    ok = r.status == "ok" and returns.size > 0
+    return {
+        **_spec_row(r),
+        "status": r.status,
+        "return": float(returns.mean()) if ok else math.nan,
+        "return_std": float(returns.std()) if ok else math.nan,
+        "env_steps": r.env_steps,
+        "wall_time": r.wall_time,
+    }
+
+
+def _frame(rows: list[dict], columns: list[str], sort_by: list[str]) -> pd.DataFrame:
+    frame = pd.DataFrame(rows, columns=columns)
+    return frame.sort_values(sort_by, kind="stable", ignore_index=True)
+
+
+def _finite(value: Any) -> Any:
+    """Replace NaN and inf by None, all the way down: JSON has no NaN."""
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    if isinstance(value, dict):
+        return {k: _finite(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [_finite(v) for v in value]
+    if isinstance(value, np.ndarray | np.generic):
+        return _finite(value.tolist())  # runners may hand over numpy returns
+    return value
+
+
+def _float(value: Any) -> float:
+    return math.nan if value is None else float(value)
+
+
+def _remove_stale_tmp(folder: Path) -> None:
+    cutoff = time.time() - STALE_TMP_SECONDS
+    for tmp in folder.glob("*.tmp"):
+        with contextlib.suppress(OSError):  # another process may clean it first
+            if tmp.stat().st_mtime < cutoff:
+                tmp.unlink()
+
+
+def _fsync_dir(folder: Path) -> None:
+    """Make the rename itself durable (POSIX); a no-op where folders cannot be opened."""
+    try:
+        fd = os.open(folder, os.O_RDONLY)
+    except OSError:
+        return
+    try:
+        with contextlib.suppress(OSError):
+            os.fsync(fd)
+    finally:
+        os.close(fd)

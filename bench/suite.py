@@ -1,0 +1,387 @@
+"""Suite files: YAML -> validated `Suite` -> list[TrialSpec].
+
+A suite names everything one experiment runs::
+
+    name: quick            # optional, defaults to the file stem; results go to results/<name>/
+    envs:                  # env id -> settings; budget = env steps per training trial
+      InvertedPendulumBulletEnv-v0: {budget: 100000}
+    demos: [1, 5, 10, 25]  # demonstration counts: distinct ints in 1..DEMO_POOL_SIZE
+    algorithms:            # a name, or {name: {hyperparameter: value}}
+      - random
+      - expert
+      - gaifo: {disc_lr: 0.001}
+    seeds: 10              # a count (seeds 0..n-1) or a list of distinct ints >= 0; default 10
+    eval_episodes: 10      # episodes per evaluation; default 10
+    runner: {jobs: 2, backend: loky}   # optional; jobs >= 1 or -1 (all cores), backend loky|dask
+
+Everything is checked before any work starts: unknown keys, wrong types,
+unknown algorithms, hyperparameters and env ids, and a missing expert (every
+suite needs one per env, since it defines a normalized score of 1). Each
+problem raises `SuiteError`, whose message is one line: file, key path, what
+was expected.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import re
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+from bench import paths, registry
+from bench.envs import EnvError, check_env_id
+from bench.types import TrialSpec
+
+DEMO_POOL_SIZE = 25
+"""Demonstrations recorded per env; a suite may ask for at most this many."""
+
+_SUITE_KEYS = ("name", "envs", "demos", "algorithms", "seeds", "eval_episodes", "runner")
+_REQUIRED_KEYS = ("envs", "demos", "algorithms")
+_ENV_KEYS = ("budget",)
+_RUNNER_KEYS = ("jobs", "backend")
+_BACKENDS = ("loky", "dask")
+_NAME_PATTERN = re.compile(r"[A-Za-z0-9][A-Za-z0-9._-]*")  # it becomes a folder name
+
+
+class SuiteError(ValueError):
+    """A suite file that cannot be run; the message is one line."""
+
+
+@dataclass(frozen=True)
+class RunnerSettings:
+    jobs: int = -1
+    """Parallel trials; -1 uses every core."""
+    backend: str = "loky"
+    """joblib backend: "loky" (this machine) or "dask" (a cluster)."""
+
+
+@dataclass(frozen=True)
+class EnvSettings:
+    env_id: str
+    budget: int
+    """Env steps each training trial may take."""
+
+
+@dataclass(frozen=True)
+class AlgorithmEntry:
+    name: str
+    hyperparams: dict[str, Any] = field(default_factory=dict, hash=False)
+    """Overrides of the algorithm's config dataclass, already validated."""
+    uses_demos: bool = True
+    """False for algorithms whose inputs are "none" or "expert": run once, with n_demos=0."""
+
+
+@dataclass(frozen=True)
+class Suite:
+    name: str
+    envs: tuple[EnvSettings, ...]
+    demos: tuple[int, ...]
+    algorithms: tuple[AlgorithmEntry, ...]
+    seeds: tuple[int, ...]
+    eval_episodes: int = 10
+    runner: RunnerSettings = RunnerSettings()
+
+
+def load_suite(path: str | Path) -> Suite:
+    """Read and validate a suite file; raise SuiteError on the first problem."""
+    path = Path(path)
+    return _validate(_read_yaml(path), path)
+
+
+def expand(suite: Suite) -> list[TrialSpec]:
+    """All trials of a suite, in a fixed order.
+
+    Per env: the algorithms that take no demonstrations (once per seed, with
+    n_demos=0), then demo count x algorithm x seed for the others.
+    """
+    no_demos = [a for a in suite.algorithms if not a.uses_demos]
+    with_demos = [a for a in suite.algorithms if a.uses_demos]
+    specs = []
+    for env in suite.envs:
+        specs += [_spec(suite, env, a, 0, s) for a in no_demos for s in suite.seeds]
+        specs += [
+            _spec(suite, env, a, n, s) for n in suite.demos for a in with_demos for s in suite.seeds
+        ]
+    return specs
+
+
+def _spec(
+    suite: Suite, env: EnvSettings, algo: AlgorithmEntry, n_demos: int, seed: int
+) -> TrialSpec:
+    return TrialSpec(
+        suite=suite.name,
+        env_id=env.env_id,
+        algorithm=algo.name,
+        n_demos=n_demos,
+        seed=seed,
+        budget=env.budget,
+        eval_episodes=suite.eval_episodes,
+        hyperparams=dict(algo.hyperparams),  # a copy: specs outlive the suite
+    )
+
+
+# ---------------------------------------------------------------- reading
+
+
+class _StrictLoader(yaml.SafeLoader):
+    """SafeLoader that rejects duplicate keys (plain safe_load keeps the last one silently)."""
+
+
+def _construct_mapping(loader: _StrictLoader, node: yaml.MappingNode) -> dict:
+    seen: set = set()
+    for key_node, _ in node.value:
+        key = loader.construct_object(key_node)
+        if key in seen:
+            raise yaml.constructor.ConstructorError(
+                None, None, f"duplicate key {key!r}", key_node.start_mark
+            )
+        seen.add(key)
+    return loader.construct_mapping(node)
+
+
+_StrictLoader.add_constructor(yaml.resolver.BaseResolver.DEFAULT_MAPPING_TAG, _construct_mapping)
+
+
+def _read_yaml(path: Path) -> Any:
+    if not path.is_file():
+        others = sorted(p.stem for p in path.parent.glob("*.y*ml")) if path.parent.is_dir() else []
+        hint = f" (suites there: {', '.join(others)})" if others else ""
+        raise SuiteError(f"{path}: no such suite file{hint}")
+    try:
+        return yaml.load(path.read_text(), Loader=_StrictLoader)  # a SafeLoader
+    except yaml.MarkedYAMLError as e:
+        mark = e.problem_mark
+        where = f"line {mark.line + 1}, column {mark.column + 1}: " if mark else ""
+        raise SuiteError(f"{path}: {where}invalid YAML: {e.problem}") from None
+    except (yaml.YAMLError, UnicodeDecodeError) as e:
+        raise SuiteError(f"{path}: invalid YAML: {_one_line(str(e))}") from None
+
+
+# ---------------------------------------------------------------- validating
+
+
+class _Invalid(Exception):
+    """One problem at one key path; load_suite adds the file name."""
+
+    def __init__(self, key: str, message: str) -> None:
+        super().__init__(f"{key}: {message}" if key else message)
+
+
+def _validate(raw: Any, path: Path) -> Suite:
+    try:
+        return _suite(raw, path.stem)
+    except _Invalid as e:
+        raise SuiteError(f"{path}: {e}") from None
+
+
+def _suite(raw: Any, default_name: str) -> Suite:
+    if not isinstance(raw, dict):
+        raise _Invalid(
+            "", f"expected a mapping with keys {', '.join(_REQUIRED_KEYS)}, got {_show(raw)}"
+        )
+    _check_keys(raw, _SUITE_KEYS, "")
+    for key in _REQUIRED_KEYS:
+        if key not in raw:
+            raise _Invalid(key, "missing (required)")
+
+    name = raw.get("name", default_name)
+    if not isinstance(name, str) or not _NAME_PATTERN.fullmatch(name):
+        raise _Invalid(
+            "name", f"expected a folder name (letters, digits, . _ -), got {_show(name)}"
+        )
+
+    envs = _envs(raw["envs"])
+    demos = _int_list(raw["demos"], "demos", 1, DEMO_POOL_SIZE)
+    seeds = _seeds(raw.get("seeds", 10))
+    eval_episodes = _int(raw.get("eval_episodes", 10), "eval_episodes", 1, None)
+    runner = _runner(raw.get("runner", {}))
+    algorithms = _algorithms(raw["algorithms"])
+
+    # Lookups last: they are the slow part and the structure is known good by now.
+    for env in envs:
+        try:
+            check_env_id(env.env_id)
+        except EnvError as e:
+            raise _Invalid(f"envs.{env.env_id}", _one_line(str(e))) from None
+        if not paths.has_expert(env.env_id):
+            raise _Invalid(
+                f"envs.{env.env_id}",
+                f"no trained expert in {paths.expert_dir(env.env_id)} (every suite needs one:"
+                " it is the 1.0 of normalized scores; train it with `bench experts`)",
+            )
+    return Suite(name, envs, demos, algorithms, seeds, eval_episodes, runner)
+
+
+def _envs(raw: Any) -> tuple[EnvSettings, ...]:
+    if not isinstance(raw, dict) or not raw:
+        raise _Invalid(
+            "envs", f"expected a non-empty mapping of env id -> {{budget: ...}}, got {_show(raw)}"
+        )
+    envs = []
+    for env_id, settings in raw.items():
+        if not isinstance(env_id, str):
+            raise _Invalid("envs", f"expected env ids (strings) as keys, got {_show(env_id)}")
+        key = f"envs.{env_id}"
+        if not isinstance(settings, dict):
+            raise _Invalid(
+                key, f"expected a mapping like {{budget: 100000}}, got {_show(settings)}"
+            )
+        _check_keys(settings, _ENV_KEYS, key)
+        if "budget" not in settings:
+            raise _Invalid(f"{key}.budget", "missing (required: env steps per training trial)")
+        envs.append(EnvSettings(env_id, _int(settings["budget"], f"{key}.budget", 1, None)))
+    return tuple(envs)
+
+
+def _seeds(raw: Any) -> tuple[int, ...]:
+    if isinstance(raw, list):
+        return _int_list(raw, "seeds", 0, None)
+    return tuple(range(_int(raw, "seeds", 1, None, what="a seed count or a list of seeds")))
+
+
+def _runner(raw: Any) -> RunnerSettings:
+    if not isinstance(raw, dict):
+        raise _Invalid(
+            "runner", f"expected a mapping like {{jobs: 2, backend: loky}}, got {_show(raw)}"
+        )
+    _check_keys(raw, _RUNNER_KEYS, "runner")
+    jobs = raw.get("jobs", RunnerSettings.jobs)
+    if not _is_int(jobs) or (jobs < 1 and jobs != -1):
+        raise _Invalid(
+            "runner.jobs", f"expected a positive integer or -1 (all cores), got {_show(jobs)}"
+        )
+    backend = raw.get("backend", RunnerSettings.backend)
+    if backend not in _BACKENDS:
+        raise _Invalid(
+            "runner.backend", f"expected one of {', '.join(_BACKENDS)}, got {_show(backend)}"
+        )
+    return RunnerSettings(jobs, backend)
+
+
+def _algorithms(raw: Any) -> tuple[AlgorithmEntry, ...]:
+    if not isinstance(raw, list) or not raw:
+        raise _Invalid("algorithms", f"expected a non-empty list of names, got {_show(raw)}")
+    entries = []
+    for i, item in enumerate(raw):
+        key = f"algorithms[{i}]"
+        if isinstance(item, dict) and len(item) == 1:
+            name, overrides = next(iter(item.items()))
+            overrides = {} if overrides is None else overrides  # `- gaifo:` with nothing after
+        else:
+            name, overrides = item, {}
+        if not isinstance(name, str):
+            raise _Invalid(
+                key, f"expected a name or {{name: {{hyperparameter: value}}}}, got {_show(item)}"
+            )
+        if not isinstance(overrides, dict):
+            raise _Invalid(
+                f"{key}.{name}", f"expected a mapping of hyperparameters, got {_show(overrides)}"
+            )
+        try:
+            algo = registry.get(name)
+        except registry.RegistryError as e:
+            raise _Invalid(key, _one_line(str(e))) from None
+        _check_hyperparams(algo, overrides, f"{key}.{name}")
+        if any(e.name == name for e in entries):
+            # Records and plots group by name, so two entries would silently merge.
+            raise _Invalid(key, f"{name!r} is listed twice; give each algorithm one entry")
+        entries.append(AlgorithmEntry(name, overrides, algo.inputs in ("states", "actions")))
+    return tuple(entries)
+
+
+def _check_hyperparams(algo: registry.Algorithm, overrides: dict, key: str) -> None:
+    for name, value in overrides.items():
+        try:
+            json.dumps(value, allow_nan=False)  # they go into TrialSpec, which is hashed as JSON
+        except (TypeError, ValueError):
+            raise _Invalid(
+                f"{key}.{name}",
+                f"expected a plain value (number, string, list), got {_show(value)}",
+            ) from None
+    fields = {f.name: f for f in dataclasses.fields(algo.config)}
+    for name, value in overrides.items():
+        expected = _scalar_type(fields[name]) if name in fields else None
+        if expected is not None and not _matches(value, expected):
+            raise _Invalid(
+                f"{key}.{name}",
+                f"expected {expected.__name__}, got {_show(value)}{_number_hint(value)}",
+            )
+    try:
+        algo.make_config(overrides)
+    except (TypeError, ValueError) as e:
+        raise _Invalid(key, _one_line(str(e))) from None
+
+
+def _scalar_type(f: dataclasses.Field) -> type | None:
+    """The type of a field's scalar default; YAML typos (1e-3 is a string) fail here, not mid-run."""
+    if f.default is dataclasses.MISSING:
+        return None
+    kind = type(f.default)
+    return kind if kind in (bool, int, float, str) else None
+
+
+def _matches(value: Any, expected: type) -> bool:
+    if expected is float:
+        return _is_int(value) or isinstance(value, float)
+    if expected is int:
+        return _is_int(value)
+    return type(value) is expected
+
+
+# ---------------------------------------------------------------- small checks
+
+
+def _is_int(value: Any) -> bool:
+    return isinstance(value, int) and not isinstance(value, bool)  # True is an int in Python
+
+
+def _int(value: Any, key: str, lo: int, hi: int | None, what: str = "") -> int:
+    if not _is_int(value) or value < lo or (hi is not None and value > hi):
+        if not what:
+            what = {0: "a non-negative integer", 1: "a positive integer"}.get(
+                lo, f"an integer >= {lo}"
+            )
+            what += f" <= {hi}" if hi is not None else ""
+        raise _Invalid(key, f"expected {what}, got {_show(value)}{_number_hint(value)}")
+    return value
+
+
+def _number_hint(value: Any) -> str:
+    """PyYAML reads 1e5 and 1e-3 as strings (YAML 1.1 wants a dot and a sign); say so."""
+    if not isinstance(value, str):
+        return ""
+    try:
+        number = float(value)
+    except ValueError:
+        return ""
+    plain = int(number) if number.is_integer() else number
+    return f" (YAML reads {value} as a string; write {plain})"
+
+
+def _int_list(raw: Any, key: str, lo: int, hi: int | None) -> tuple[int, ...]:
+    if not isinstance(raw, list) or not raw:
+        raise _Invalid(key, f"expected a non-empty list of integers, got {_show(raw)}")
+    values = tuple(_int(v, f"{key}[{i}]", lo, hi) for i, v in enumerate(raw))
+    if len(set(values)) != len(values):
+        raise _Invalid(key, f"expected distinct values, got {_show(raw)}")
+    return values
+
+
+def _check_keys(raw: dict, allowed: tuple[str, ...], where: str) -> None:
+    unknown = [k for k in raw if k not in allowed]
+    if unknown:
+        key = f"{where}.{unknown[0]}" if where else str(unknown[0])
+        raise _Invalid(key, f"unknown key (expected one of {', '.join(allowed)})")
+
+
+def _show(value: Any) -> str:
+    text = repr(value)  # repr escapes newlines, so messages stay on one line
+    return text if len(text) <= 60 else text[:57] + "..."
+
+
+def _one_line(text: str) -> str:
+    return " ".join(text.split())

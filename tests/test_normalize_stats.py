@@ -1,0 +1,225 @@
+"""Normalization against random/expert, and the rliable wrappers on 4x2 matrices."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from bench import stats
+from bench.normalize import NormalizationError, normalize, reference_returns
+
+
+def trials(rows: list[tuple]) -> pd.DataFrame:
+    return pd.DataFrame(
+        rows, columns=["env_id", "algorithm", "n_demos", "seed", "status", "return"]
+    )
+
+
+REFS = [
+    ("A", "random", 0, 0, "ok", 0.0),
+    ("A", "random", 0, 1, "ok", 20.0),  # mean 10
+    ("A", "random", 0, 2, "failed", math.nan),
+    ("A", "expert", 0, 0, "ok", 110.0),
+    ("B", "random", 0, 0, "ok", -1.0),
+    ("B", "expert", 0, 0, "ok", 1.0),
+]
+
+
+def test_reference_returns():
+    refs = reference_returns(trials(REFS))
+    assert refs.to_dict("list") == {
+        "env_id": ["A", "B"],
+        "random": [10.0, -1.0],
+        "expert": [110.0, 1.0],
+    }
+
+
+def test_normalize():
+    frame = trials(REFS + [("A", "gaifo", 5, 0, "ok", 60.0), ("B", "gaifo", 5, 0, "ok", 0.0)])
+    out = normalize(frame)
+    assert list(out.columns) == [*frame.columns, "normalized"]
+    by_row = out.set_index(["env_id", "algorithm", "seed"])["normalized"]
+    assert by_row[("A", "gaifo", 0)] == pytest.approx(0.5)
+    assert by_row[("B", "gaifo", 0)] == pytest.approx(0.5)
+    assert by_row[("A", "expert", 0)] == pytest.approx(1.0)
+    assert by_row[("A", "random", 0)] == pytest.approx(-0.1)
+    assert math.isnan(by_row[("A", "random", 2)])  # failed trials stay NaN
+
+
+def test_normalize_curves_with_the_trials_references():
+    curves = pd.DataFrame(
+        {"env_id": ["A", "A"], "algorithm": ["gaifo"] * 2, "return": [10.0, 110.0]}
+    )
+    out = normalize(curves, reference_returns(trials(REFS)))
+    assert out["normalized"].tolist() == [0.0, 1.0]
+
+
+@pytest.mark.parametrize(
+    "rows, message",
+    [
+        (
+            [r for r in REFS if r[:2] != ("B", "expert")],
+            "B: no ok trial of expert to normalize against",
+        ),
+        (
+            [r for r in REFS if r[0] != "A" or r[1] != "random"],
+            "A: no ok trial of random to normalize",
+        ),
+        (
+            [r for r in REFS if r[0] != "B"] + [("B", "gaifo", 1, 0, "ok", 1.0)],
+            "B: no ok trial of random or expert",
+        ),
+        (
+            [("A", "random", 0, 0, "ok", 5.0), ("A", "expert", 0, 0, "ok", 5.0)],
+            "A: expert return 5 is not above random 5",
+        ),
+        (
+            [("A", "random", 0, 0, "failed", math.nan), ("A", "expert", 0, 0, "ok", 5.0)],
+            "A: no ok trial of random",
+        ),
+    ],
+)
+def test_missing_references_name_env_and_reference(rows, message):
+    with pytest.raises(NormalizationError, match=message) as info:
+        normalize(trials(rows))
+    assert "\n" not in str(info.value)
+
+
+# ---------------------------------------------------------------- stats
+
+
+def scores(algorithm: str, matrix, n_demos=5) -> pd.DataFrame:
+    """A normalized frame from a (seeds x envs) matrix."""
+    matrix = np.asarray(matrix, dtype=float)
+    return pd.DataFrame(
+        [
+            {
+                "env_id": f"env{t}",
+                "algorithm": algorithm,
+                "n_demos": n_demos,
+                "seed": s,
+                "normalized": matrix[s, t],
+            }
+            for s in range(matrix.shape[0])
+            for t in range(matrix.shape[1])
+        ]
+    )
+
+
+ONE_TO_EIGHT = np.arange(1, 9).reshape(4, 2)  # runs x tasks
+
+
+def test_score_dict_pivots_runs_by_tasks():
+    frame = pd.concat(
+        [scores("gaifo", ONE_TO_EIGHT), scores("bco", -ONE_TO_EIGHT), scores("random", [[0, 0]], 0)]
+    )
+    got = stats.score_dict(frame, n_demos=5)
+    assert list(got) == ["bco", "gaifo"]
+    np.testing.assert_array_equal(got["gaifo"], ONE_TO_EIGHT)
+    np.testing.assert_array_equal(got["bco"], -ONE_TO_EIGHT)
+
+
+def test_score_dict_includes_demo_free_learners_at_every_count():
+    frame = pd.concat(
+        [
+            scores("gaifo", ONE_TO_EIGHT),
+            scores("survival", ONE_TO_EIGHT / 10, n_demos=0),
+            scores("random", np.zeros((4, 2)), n_demos=0),
+        ]
+    )
+    assert list(stats.score_dict(frame, n_demos=5)) == ["gaifo", "survival"]
+    named = stats.score_dict(frame, n_demos=5, algorithms=["gaifo", "random"])
+    np.testing.assert_array_equal(named["random"], np.zeros((4, 2)))
+
+
+def test_score_dict_drops_to_common_seeds_with_a_warning():
+    frame = scores("gaifo", ONE_TO_EIGHT)
+    frame = frame[~((frame["seed"] == 3) & (frame["env_id"] == "env1"))]  # seed 3 lacks env1
+    with pytest.warns(UserWarning, match=r"gaifo: dropped seed\(s\) \[3\]"):
+        got = stats.score_dict(frame, n_demos=5)
+    np.testing.assert_array_equal(got["gaifo"], ONE_TO_EIGHT[:3])
+
+
+def test_score_dict_drops_failed_runs_with_a_warning():
+    frame = scores("gaifo", ONE_TO_EIGHT)
+    frame.loc[0, "normalized"] = math.nan
+    with pytest.warns(UserWarning, match=r"dropped seed\(s\) \[0\]"):
+        assert stats.score_dict(frame, n_demos=5)["gaifo"].shape == (3, 2)
+
+
+def test_score_dict_keeps_common_envs_and_given_algorithms():
+    frame = pd.concat([scores("gaifo", ONE_TO_EIGHT), scores("bco", ONE_TO_EIGHT[:, :1])])
+    with pytest.warns(UserWarning, match=r"gaifo: dropped env\(s\) \['env1'\]"):
+        got = stats.score_dict(frame, n_demos=5, algorithms=["gaifo", "bco"])
+    assert list(got) == ["gaifo", "bco"]
+    assert got["gaifo"].shape == got["bco"].shape == (4, 1)
+    with pytest.raises(ValueError, match="n_demos=5 for tcn"):
+        stats.score_dict(frame, n_demos=5, algorithms=["gaifo", "tcn"])
+
+
+def test_score_dict_without_the_demo_count_fails():
+    with pytest.raises(ValueError, match="no scores with n_demos=7"):
+        stats.score_dict(scores("gaifo", ONE_TO_EIGHT), n_demos=7)
+
+
+def test_aggregate_scores_by_hand():
+    table = stats.aggregate_scores({"a": ONE_TO_EIGHT.astype(float)}, reps=200)
+    est = table.set_index("metric")["estimate"]
+    # mean of all = 4.5; median of task means (4, 5) = 4.5; IQM of 1..8 = mean(3, 4, 5, 6) = 4.5
+    assert est.to_dict() == {"mean": 4.5, "median": 4.5, "iqm": 4.5}
+    assert (table["lo"] <= table["estimate"]).all() and (table["estimate"] <= table["hi"]).all()
+    assert (table["hi"] - table["lo"] > 0).all()
+    assert list(table.columns) == ["algorithm", "metric", "estimate", "lo", "hi"]
+
+
+def test_aggregate_scores_iqm_trims_the_tails():
+    skewed = np.array([[0.0, 0.0], [1.0, 1.0], [1.0, 1.0], [100.0, 100.0]])
+    table = stats.aggregate_scores({"a": skewed}, reps=50).set_index("metric")
+    assert table.loc["iqm", "estimate"] == 1.0
+    assert table.loc["mean", "estimate"] == 25.5
+
+
+def test_constant_scores_have_a_point_interval():
+    table = stats.aggregate_scores({"a": np.full((4, 2), 0.7)}, reps=100)
+    np.testing.assert_allclose(table[["estimate", "lo", "hi"]].to_numpy(), 0.7)
+
+
+def test_aggregate_scores_is_reproducible_and_leaves_global_rng_alone():
+    np.random.seed(123)
+    expected_next = np.random.rand()
+    np.random.seed(123)
+    first = stats.aggregate_scores({"a": ONE_TO_EIGHT.astype(float)}, reps=100, seed=1)
+    assert np.random.rand() == expected_next
+    again = stats.aggregate_scores({"a": ONE_TO_EIGHT.astype(float)}, reps=100, seed=1)
+    pd.testing.assert_frame_equal(first, again)
+
+
+def test_probability_of_improvement():
+    better = ONE_TO_EIGHT + 100.0
+    table = stats.probability_of_improvement(
+        {"gaifo": better, "bco": ONE_TO_EIGHT.astype(float), "same": better.copy()}, reps=100
+    )
+    assert list(table.columns) == ["algorithm", "other", "estimate", "lo", "hi"]
+    rows = table.set_index("other")
+    assert rows.loc["bco", "estimate"] == 1.0  # every gaifo run beats every bco run
+    assert rows.loc["same", "estimate"] == 0.5
+    assert set(table["algorithm"]) == {"gaifo"}
+
+
+def test_probability_of_improvement_needs_the_target():
+    with pytest.raises(ValueError, match="'gaifo' not among"):
+        stats.probability_of_improvement({"bco": ONE_TO_EIGHT.astype(float)}, reps=10)
+
+
+def test_performance_profile():
+    taus = np.array([0.0, 4.5, 8.0])
+    profile = stats.performance_profile({"a": ONE_TO_EIGHT.astype(float)}, taus, reps=50)
+    assert list(profile.columns) == ["algorithm", "tau", "fraction", "lo", "hi"]
+    # fraction of the 8 runs x tasks scoring above tau
+    assert profile["fraction"].tolist() == [1.0, 0.5, 0.0]
+    assert (profile["lo"] <= profile["fraction"]).all() and (
+        profile["fraction"] <= profile["hi"]
+    ).all()

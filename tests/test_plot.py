@@ -1,0 +1,156 @@
+"""Figures and tables from a small synthetic normalized frame."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import pandas as pd
+import pytest
+from matplotlib.patches import Rectangle
+
+from bench import plot, registry, stats
+
+ENVS = ["HopperBulletEnv-v0", "InvertedPendulumBulletEnv-v0"]  # Pendulum comes first in the paper
+DEMOS = [1, 10]
+SEEDS = [0, 1, 2]
+
+
+@dataclass
+class NoConfig:
+    pass
+
+
+@pytest.fixture(autouse=True)
+def algorithms(monkeypatch):
+    """gail uses expert actions (registry); gaifo is left unregistered to exercise the fallback."""
+    monkeypatch.setattr(registry, "_loaded", True)
+    monkeypatch.setattr(registry, "_ALGORITHMS", {})
+    registry.register("gail", config=NoConfig, inputs="actions")(lambda *a: None)
+
+
+def frame() -> pd.DataFrame:
+    """2 envs x (random, expert at 0 demos; gaifo, gail at 1 and 10 demos) x 3 seeds."""
+    rows = []
+    for env_id in ENVS:
+        for seed in SEEDS:
+            rows.append((env_id, "random", 0, seed, 0.0 + 0.01 * seed))
+            rows.append((env_id, "expert", 0, seed, 1.0 - 0.01 * seed))
+            for n in DEMOS:
+                rows.append((env_id, "gaifo", n, seed, 0.05 * n + 0.1 * seed))
+                rows.append((env_id, "gail", n, seed, 0.06 * n + 0.1 * seed))
+    df = pd.DataFrame(rows, columns=["env_id", "algorithm", "n_demos", "seed", "normalized"])
+    return df.assign(**{"return": 100 * df["normalized"]})
+
+
+def test_figure2_panels_bars_and_labels():
+    fig = plot.draw_figure2(frame())
+    assert len(fig.axes) == len(ENVS)
+    assert [ax.get_title() for ax in fig.axes] == ["InvertedPendulum", "Hopper"]
+    for ax in fig.axes:
+        bars = [p for p in ax.patches if isinstance(p, Rectangle)]
+        assert len(bars) == 2 * len(DEMOS)  # gaifo and gail; random/expert are lines
+        assert [t.get_text() for t in ax.get_xticklabels()] == ["1", "10"]
+        assert {
+            round(line.get_ydata()[0], 6) for line in ax.lines if line.get_linestyle() == "--"
+        } == {
+            0.0,
+            1.0,
+        }
+    # bar height = mean over seeds: gaifo on Pendulum with 10 demos = 0.5 + mean(0, .1, .2)
+    heights = sorted(round(p.get_height(), 6) for p in fig.axes[0].patches)
+    assert 0.6 in heights
+    (legend,) = fig.legends
+    assert [t.get_text() for t in legend.get_texts()] == [
+        "GAIfO",
+        "GAIL*",
+        "Random (0)",
+        "Expert (1)",
+    ]
+    assert plot.ACTIONS_FOOTNOTE in [t.get_text() for t in fig.texts]
+    assert fig.get_suptitle()
+
+
+def test_figure2_repeats_demo_free_learners_at_every_count():
+    df = frame()
+    survival = df[df["algorithm"] == "random"].assign(algorithm="survival", normalized=0.2)
+    fig = plot.draw_figure2(pd.concat([df, survival]))
+    for ax in fig.axes:
+        assert len(ax.patches) == 3 * len(DEMOS)
+        assert [t.get_text() for t in ax.get_xticklabels()] == ["1", "10"]
+    assert [t.get_text() for t in fig.legends[0].get_texts()][:3] == ["GAIfO", "GAIL*", "Survival"]
+
+
+def test_figure2_writes_png_and_pdf(tmp_path):
+    paths = plot.figure2(frame(), tmp_path / "figs" / "figure2")
+    assert paths == [tmp_path / "figs" / "figure2.png", tmp_path / "figs" / "figure2.pdf"]
+    assert paths[0].read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert paths[1].read_bytes()[:5] == b"%PDF-"
+
+
+def test_figure2_without_action_users_has_no_footnote():
+    df = frame()
+    fig = plot.draw_figure2(df[df["algorithm"] != "gail"])
+    assert plot.ACTIONS_FOOTNOTE not in [t.get_text() for t in fig.texts]
+
+
+def test_figure2_needs_a_learner():
+    df = frame()
+    with pytest.raises(ValueError, match="no trials of a learning algorithm"):
+        plot.draw_figure2(df[df["algorithm"].isin(["random", "expert"])])
+
+
+def test_order_and_colors_are_fixed():
+    assert plot.algorithm_order(["zeta", "tcn", "random", "gaifo", "alpha"]) == [
+        "gaifo",
+        "tcn",
+        "alpha",
+        "zeta",
+    ]
+    assert (
+        plot.algorithm_colors(["gail"])["gail"]
+        == plot.algorithm_colors(["gaifo", "gail", "x"])["gail"]
+    )
+    assert plot.env_order(["Pendulum-v1", *ENVS]) == [ENVS[1], ENVS[0], "Pendulum-v1"]
+    assert plot.env_label("Walker2DBulletEnv-v0") == "Walker2D"
+    assert plot.env_label("Pendulum-v1") == "Pendulum"
+
+
+def test_summary_table():
+    table = plot.summary_table(frame())
+    lines = table.splitlines()
+    assert lines[0] == "| env | algorithm | no demos | 1 demo | 10 demos |"
+    assert "| InvertedPendulum | GAIfO |  | 0.15 ± 0.10 | 0.60 ± 0.10 |" in lines
+    assert "| InvertedPendulum | Random | 0.01 ± 0.01 |  |  |" in lines
+    assert lines[-1] == plot.ACTIONS_FOOTNOTE
+
+
+def test_summary_csv(tmp_path):
+    path = plot.write_summary_csv(frame(), tmp_path / "summary.csv")
+    back = pd.read_csv(path)
+    assert list(back.columns) == ["env", "algorithm", "demos", "seed", "return", "normalized"]
+    assert len(back) == len(frame())
+
+
+def test_learning_curves(tmp_path):
+    rows = [
+        (env_id, algo, 10, seed, step, step / 1000 * (0.9 if algo == "gaifo" else 0.8))
+        for env_id in ENVS
+        for algo in ("gaifo", "gail")
+        for seed in SEEDS
+        for step in (0, 500, 1000)
+    ]
+    curves = pd.DataFrame(
+        rows, columns=["env_id", "algorithm", "n_demos", "seed", "env_steps", "normalized"]
+    )
+    fig = plot.draw_learning_curves(curves)
+    assert len(fig.axes) == len(ENVS)
+    assert plot.learning_curves(curves, tmp_path / "curves")[0].is_file()
+
+
+def test_performance_profile_plot(tmp_path):
+    scores = {"gaifo": np.arange(1, 9).reshape(4, 2) / 8, "gail": np.full((4, 2), 0.5)}
+    profile = stats.performance_profile(scores, np.linspace(0, 1, 5), reps=20)
+    fig = plot.draw_performance_profile(profile)
+    assert [line.get_label() for line in fig.axes[0].lines] == ["GAIfO", "GAIL*"]
+    assert plot.performance_profile_plot(profile, tmp_path / "profile")[1].is_file()

@@ -1,0 +1,172 @@
+"""Trial records: round trips, atomic writes, tolerant scans, tidy frames."""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import time
+
+import numpy as np
+import pytest
+
+from bench import store
+from bench.types import CurvePoint, TrialResult, TrialSpec
+
+
+def spec(algorithm="gaifo", seed=0, n_demos=5, env_id="HopperBulletEnv-v0") -> TrialSpec:
+    return TrialSpec("quick", env_id, algorithm, n_demos, seed, 1000, 3, {"disc_lr": 0.001})
+
+
+def result(s: TrialSpec | None = None, status="ok", returns=(1.0, 2.0, 3.0), **kw) -> TrialResult:
+    fields = dict(
+        spec=s or spec(),
+        status=status,
+        returns=list(returns),
+        curve=[CurvePoint(500, 0.5), CurvePoint(1000, 2.0)],
+        env_steps=1000,
+        wall_time=12.5,
+        versions={"torch": "2.3"},
+        logs={"disc_acc": [0.5, 0.75]},
+    )
+    return TrialResult(**(fields | kw))
+
+
+def test_round_trip(tmp_path):
+    r = result()
+    path = store.write(tmp_path, r)
+    assert path == tmp_path / "trials" / f"{r.trial_id}.json"
+    back = store.read(path)
+    assert back == r
+    assert isinstance(back.spec, TrialSpec) and isinstance(back.curve[0], CurvePoint)
+
+
+def test_non_finite_numbers_become_null_and_come_back_as_nan(tmp_path):
+    r = result(
+        returns=[1.0, math.nan],
+        curve=[CurvePoint(10, math.inf)],
+        wall_time=math.nan,
+        logs={"loss": [np.float32(0.5), -math.inf]},
+    )
+    path = store.write(tmp_path, r)
+
+    def no_constants(name):
+        raise AssertionError(f"{name} written to JSON")
+
+    raw = json.loads(path.read_text(), parse_constant=no_constants)
+    assert raw["returns"] == [1.0, None] and raw["wall_time"] is None
+    back = store.read(path)
+    assert back.returns[0] == 1.0 and math.isnan(back.returns[1])
+    assert math.isnan(back.curve[0].mean_return) and math.isnan(back.wall_time)
+    assert back.logs["loss"][0] == 0.5 and math.isnan(back.logs["loss"][1])
+
+
+def test_numpy_returns_are_written_as_plain_numbers(tmp_path):
+    path = store.write(tmp_path, result(returns=np.array([1.0, 2.0], dtype=np.float32)))
+    assert store.read(path).returns == [1.0, 2.0]
+
+
+def test_write_replaces_and_leaves_no_temp_files(tmp_path):
+    store.write(tmp_path, result(returns=[1.0]))
+    path = store.write(tmp_path, result(returns=[2.0]))
+    assert store.read(path).returns == [2.0]
+    assert sorted(p.name for p in (tmp_path / "trials").iterdir()) == [path.name]
+
+
+def test_failed_write_leaves_neither_record_nor_temp(tmp_path, monkeypatch):
+    def broken_replace(src, dst):
+        raise OSError("disk full")
+
+    monkeypatch.setattr(os, "replace", broken_replace)
+    with pytest.raises(OSError, match="disk full"):
+        store.write(tmp_path, result())
+    assert list((tmp_path / "trials").iterdir()) == []
+
+
+def test_stray_temp_files_are_ignored_and_stale_ones_cleaned(tmp_path):
+    done = store.write(tmp_path, result())
+    folder = tmp_path / "trials"
+    stale = folder / "deadbeef.123.tmp"
+    stale.write_text('{"spec": {"suite"')  # what a killed writer leaves
+    old = time.time() - 2 * store.STALE_TMP_SECONDS
+    os.utime(stale, (old, old))
+    live = folder / "cafe.456.tmp"  # a writer still at work elsewhere
+    live.write_text("{")
+
+    assert store.finished(tmp_path) == {done.stem: "ok"}
+    assert not stale.exists()
+    assert live.exists()
+
+
+def test_corrupt_records_are_skipped_with_a_warning(tmp_path):
+    good = store.write(tmp_path, result())
+    (tmp_path / "trials" / "truncated.json").write_text('{"spec": {')
+    (tmp_path / "trials" / "wrong.json").write_text('{"spec": {"suite": "x"}}')
+    with pytest.warns(UserWarning) as caught:
+        assert store.finished(tmp_path) == {good.stem: "ok"}
+    assert ["truncated.json" in str(w.message) for w in caught] == [True, False]
+    assert "wrong.json" in str(caught[1].message)
+    with pytest.warns(UserWarning, match="skipping unreadable trial record"):
+        assert len(store.load(tmp_path)) == 1
+
+
+def test_finished_of_a_missing_folder_is_empty(tmp_path):
+    assert store.finished(tmp_path / "nothing") == {}
+    frame = store.load(tmp_path / "nothing")
+    assert frame.empty and list(frame.columns) == store.TRIAL_COLUMNS
+
+
+def test_load_is_tidy(tmp_path):
+    store.write(tmp_path, result(spec(seed=1), returns=[2.0, 4.0]))
+    store.write(tmp_path, result(spec(seed=0), returns=[1.0, 1.0, 4.0]))
+    store.write(tmp_path, result(spec(seed=2), status="failed", returns=[], traceback="boom"))
+    store.write(tmp_path, result(spec("random", n_demos=0), returns=[0.0]))
+
+    frame = store.load(tmp_path)
+    assert list(frame.columns) == store.TRIAL_COLUMNS
+    assert frame[["algorithm", "seed"]].values.tolist() == [
+        ["gaifo", 0],
+        ["gaifo", 1],
+        ["gaifo", 2],
+        ["random", 0],
+    ]
+    assert frame["return"].tolist()[:2] == [2.0, 3.0]
+    assert frame["return_std"].tolist()[:2] == pytest.approx([np.std([1, 1, 4]), 1.0])
+    failed = frame.iloc[2]
+    assert failed["status"] == "failed" and math.isnan(failed["return"])
+    assert frame["trial_id"].tolist()[0] == spec(seed=0).trial_id
+    assert set(frame["suite"]) == {"quick"} and set(frame["env_steps"]) == {1000}
+
+
+def test_load_curves_keeps_ok_trials_only(tmp_path):
+    store.write(tmp_path, result(spec(seed=0)))
+    store.write(tmp_path, result(spec(seed=1), status="failed", returns=[]))
+    curves = store.load_curves(tmp_path)
+    assert list(curves.columns) == store.CURVE_COLUMNS
+    assert curves[["seed", "env_steps", "return"]].values.tolist() == [
+        [0, 500, 0.5],
+        [0, 1000, 2.0],
+    ]
+
+
+def test_load_logs_is_long(tmp_path):
+    store.write(tmp_path, result())
+    logs = store.load_logs(tmp_path)
+    assert list(logs.columns) == store.LOG_COLUMNS
+    assert logs[["key", "index", "value"]].values.tolist() == [
+        ["disc_acc", 0, 0.5],
+        ["disc_acc", 1, 0.75],
+    ]
+
+
+def test_find_result_dirs(tmp_path):
+    for sub in ["trials", "quick/trials", "quick/old/trials", "experts/Hopper/trials", "empty"]:
+        (tmp_path / sub).mkdir(parents=True)
+    (tmp_path / "quick" / "trials" / "nested" / "trials").mkdir(parents=True)  # not a suite
+    assert store.find_result_dirs(tmp_path) == [
+        tmp_path,
+        tmp_path / "quick",
+        tmp_path / "quick" / "old",
+    ]
+    assert store.find_result_dirs(tmp_path / "experts") == []
+    assert store.find_result_dirs(tmp_path / "empty") == []

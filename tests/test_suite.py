@@ -1,0 +1,278 @@
+"""Suite files: what loads, what expands to which trials, and one-line errors for the rest."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import pytest
+import yaml
+
+from bench import paths, registry
+from bench.suite import DEMO_POOL_SIZE, RunnerSettings, SuiteError, expand, load_suite
+
+PENDULUM = "InvertedPendulumBulletEnv-v0"
+HOPPER = "HopperBulletEnv-v0"
+NO_EXPERT = "InvertedDoublePendulumBulletEnv-v0"
+
+
+@dataclass
+class IfoConfig:
+    lr: float = 1e-3
+    steps: int = 10
+    normalize: bool = True
+
+
+@dataclass
+class NoConfig:
+    pass
+
+
+def _train(task, demos, budget, seed, logger, config):
+    raise NotImplementedError  # suites never train
+
+
+@pytest.fixture(autouse=True)
+def algorithms(monkeypatch):
+    """A private registry with two references and two learners; the real one is left alone."""
+    monkeypatch.setattr(registry, "_loaded", True)
+    monkeypatch.setattr(registry, "_ALGORITHMS", {})
+    registry.register("random", config=NoConfig, inputs="none")(_train)
+    registry.register("expert", config=NoConfig, inputs="expert")(_train)
+    registry.register("ifo", config=IfoConfig, inputs="states")(_train)
+    registry.register("with-actions", config=NoConfig, inputs="actions")(_train)
+
+
+@pytest.fixture(autouse=True)
+def experts(monkeypatch, tmp_path):
+    root = tmp_path / "experts"
+    for env_id in (PENDULUM, HOPPER):
+        (root / env_id).mkdir(parents=True)
+        (root / env_id / "policy.pt").write_bytes(b"")
+        (root / env_id / "meta.json").write_text("{}")
+    monkeypatch.setattr(paths, "EXPERTS_DIR", root)
+
+
+def base() -> dict:
+    return {
+        "envs": {PENDULUM: {"budget": 1000}, HOPPER: {"budget": 2000}},
+        "demos": [1, 5],
+        "algorithms": ["random", "expert", {"ifo": {"lr": 0.01}}, "with-actions"],
+        "seeds": 3,
+    }
+
+
+def write(tmp_path: Path, content: dict | str, name: str = "x.yaml") -> Path:
+    path = tmp_path / name
+    path.write_text(
+        content if isinstance(content, str) else yaml.safe_dump(content, sort_keys=False)
+    )
+    return path
+
+
+def test_loads_with_defaults(tmp_path):
+    suite = load_suite(write(tmp_path, base(), "quick.yaml"))
+    assert suite.name == "quick"
+    assert [(e.env_id, e.budget) for e in suite.envs] == [(PENDULUM, 1000), (HOPPER, 2000)]
+    assert suite.demos == (1, 5)
+    assert suite.seeds == (0, 1, 2)
+    assert suite.eval_episodes == 10
+    assert suite.runner == RunnerSettings(jobs=-1, backend="loky")
+    assert [(a.name, a.hyperparams, a.uses_demos) for a in suite.algorithms] == [
+        ("random", {}, False),
+        ("expert", {}, False),
+        ("ifo", {"lr": 0.01}, True),
+        ("with-actions", {}, True),
+    ]
+
+
+def test_explicit_name_seeds_and_runner(tmp_path):
+    raw = base() | {
+        "name": "mine",
+        "seeds": [7, 3],
+        "eval_episodes": 4,
+        "runner": {"jobs": 2, "backend": "dask"},
+    }
+    suite = load_suite(write(tmp_path, raw))
+    assert suite.name == "mine"
+    assert suite.seeds == (7, 3)
+    assert suite.eval_episodes == 4
+    assert suite.runner == RunnerSettings(jobs=2, backend="dask")
+
+
+def test_yaml_text_as_documented(tmp_path):
+    text = f"""
+name: quick
+envs:
+  {PENDULUM}: {{budget: 100_000}}
+demos: [1, {DEMO_POOL_SIZE}]
+algorithms:
+  - random
+  - ifo: {{lr: 1.0e-3, steps: 5}}
+  - ifo-less-entry-is-fine-too:
+seeds: 2
+"""
+    registry.register("ifo-less-entry-is-fine-too", config=NoConfig, inputs="states")(_train)
+    suite = load_suite(write(tmp_path, text))
+    assert suite.envs[0].budget == 100_000
+    assert suite.algorithms[1].hyperparams == {"lr": 1e-3, "steps": 5}
+    assert suite.algorithms[2].hyperparams == {}
+
+
+def test_expand_counts_order_and_references(tmp_path):
+    suite = load_suite(write(tmp_path, base()))
+    specs = expand(suite)
+    # per env: 2 references x 3 seeds + 2 demo counts x 2 learners x 3 seeds
+    assert len(specs) == 2 * (2 * 3 + 2 * 2 * 3)
+    assert len({s.trial_id for s in specs}) == len(specs)
+    assert expand(suite) == specs  # deterministic
+
+    first = [(s.env_id, s.algorithm, s.n_demos, s.seed) for s in specs[:9]]
+    assert first == [
+        (PENDULUM, "random", 0, 0),
+        (PENDULUM, "random", 0, 1),
+        (PENDULUM, "random", 0, 2),
+        (PENDULUM, "expert", 0, 0),
+        (PENDULUM, "expert", 0, 1),
+        (PENDULUM, "expert", 0, 2),
+        (PENDULUM, "ifo", 1, 0),
+        (PENDULUM, "ifo", 1, 1),
+        (PENDULUM, "ifo", 1, 2),
+    ]
+    refs = [s for s in specs if s.algorithm in ("random", "expert")]
+    assert {s.n_demos for s in refs} == {0}
+    learners = [s for s in specs if s.algorithm not in ("random", "expert")]
+    assert {s.n_demos for s in learners} == {1, 5}
+    hopper = [s for s in specs if s.env_id == HOPPER]
+    assert {s.budget for s in hopper} == {2000}
+    assert all(s.suite == "x" and s.eval_episodes == 10 for s in specs)
+    assert {s.algorithm: s.hyperparams for s in specs}["ifo"] == {"lr": 0.01}
+
+
+def _set(raw: dict, keys: tuple, value) -> dict:
+    node = raw
+    for k in keys[:-1]:
+        node = node[k]
+    node[keys[-1]] = value
+    return raw
+
+
+def _drop(raw: dict, key: str) -> dict:
+    del raw[key]
+    return raw
+
+
+BAD = [
+    # (change to the valid base suite, expected message after "x.yaml: ")
+    (lambda r: r | {"sedes": 3}, "sedes: unknown key (expected one of name, envs, demos"),
+    (lambda r: _drop(r, "envs"), "envs: missing (required)"),
+    (lambda r: _set(r, ("envs", PENDULUM, "steps"), 5), f"envs.{PENDULUM}.steps: unknown key"),
+    (
+        lambda r: _set(r, ("envs", PENDULUM, "budget"), "lots"),
+        f"envs.{PENDULUM}.budget: expected a positive integer, got 'lots'",
+    ),
+    (
+        lambda r: _set(r, ("envs", PENDULUM, "budget"), True),
+        f"envs.{PENDULUM}.budget: expected a positive integer, got True",
+    ),
+    (
+        lambda r: _set(r, ("envs", PENDULUM, "budget"), 0),
+        f"envs.{PENDULUM}.budget: expected a positive integer, got 0",
+    ),
+    (
+        lambda r: _set(r, ("envs", PENDULUM, "budget"), "1e5"),
+        "got '1e5' (YAML reads 1e5 as a string; write 100000)",
+    ),
+    (lambda r: _set(r, ("envs", PENDULUM), {}), f"envs.{PENDULUM}.budget: missing"),
+    (lambda r: _set(r, ("envs",), {}), "envs: expected a non-empty mapping"),
+    (lambda r: _set(r, ("envs",), [PENDULUM]), "envs: expected a non-empty mapping"),
+    (lambda r: _set(r, ("demos",), []), "demos: expected a non-empty list of integers, got []"),
+    (lambda r: _set(r, ("demos",), 5), "demos: expected a non-empty list of integers, got 5"),
+    (
+        lambda r: _set(r, ("demos",), [1, 26]),
+        "demos[1]: expected a positive integer <= 25, got 26",
+    ),
+    (lambda r: _set(r, ("demos",), [0]), "demos[0]: expected a positive integer <= 25, got 0"),
+    (lambda r: _set(r, ("demos",), [5, 5]), "demos: expected distinct values, got [5, 5]"),
+    (lambda r: _set(r, ("seeds",), True), "seeds: expected a seed count or a list of seeds"),
+    (lambda r: _set(r, ("seeds",), 0), "seeds: expected a seed count or a list of seeds, got 0"),
+    (lambda r: _set(r, ("seeds",), [0, -1]), "seeds[1]: expected a non-negative integer"),
+    (lambda r: _set(r, ("seeds",), []), "seeds: expected a non-empty list"),
+    (lambda r: _set(r, ("eval_episodes",), 2.5), "eval_episodes: expected a positive integer"),
+    (lambda r: _set(r, ("name",), "a/b"), "name: expected a folder name"),
+    (lambda r: _set(r, ("runner",), {"jobs": 0}), "runner.jobs: expected a positive integer or -1"),
+    (lambda r: _set(r, ("runner",), {"jobs": False}), "runner.jobs: expected a positive integer"),
+    (
+        lambda r: _set(r, ("runner",), {"backend": "ray"}),
+        "runner.backend: expected one of loky, dask",
+    ),
+    (lambda r: _set(r, ("runner",), {"workers": 2}), "runner.workers: unknown key"),
+    (lambda r: _set(r, ("algorithms",), []), "algorithms: expected a non-empty list"),
+    (lambda r: _set(r, ("algorithms", 1), "gaifoo"), "algorithms[1]: unknown algorithm 'gaifoo'"),
+    (lambda r: _set(r, ("algorithms", 1), 3), "algorithms[1]: expected a name or"),
+    (lambda r: _set(r, ("algorithms", 1), "random"), "algorithms[1]: 'random' is listed twice"),
+    (
+        lambda r: _set(r, ("algorithms", 2), {"ifo": {"lrr": 0.1}}),
+        "algorithms[2].ifo: algorithm 'ifo' has no hyperparameter 'lrr' (known: lr, normalize, steps)",
+    ),
+    (
+        lambda r: _set(r, ("algorithms", 2), {"ifo": {"lr": "1e-3"}}),
+        "algorithms[2].ifo.lr: expected float, got '1e-3' (YAML reads 1e-3 as a string; write 0.001)",
+    ),
+    (
+        lambda r: _set(r, ("algorithms", 2), {"ifo": {"steps": 1.5}}),
+        "algorithms[2].ifo.steps: expected int, got 1.5",
+    ),
+    (
+        lambda r: _set(r, ("algorithms", 2), {"ifo": {"normalize": 1}}),
+        "algorithms[2].ifo.normalize: expected bool, got 1",
+    ),
+    (lambda r: _set(r, ("algorithms", 2), {"ifo": [1]}), "algorithms[2].ifo: expected a mapping"),
+    (
+        lambda r: _set(r, ("envs",), {"HoperBulletEnv-v0": {"budget": 5}}),
+        "envs.HoperBulletEnv-v0: unknown env id 'HoperBulletEnv-v0'",
+    ),
+    (
+        lambda r: _set(r, ("envs",), {NO_EXPERT: {"budget": 5}}),
+        f"envs.{NO_EXPERT}: no trained expert in",
+    ),
+]
+
+
+@pytest.mark.parametrize("change, expected", BAD, ids=[b[1].split(":")[0] for b in BAD])
+def test_bad_suites_fail_with_one_line(tmp_path, change, expected):
+    path = write(tmp_path, change(base()))
+    with pytest.raises(SuiteError) as info:
+        load_suite(path)
+    message = str(info.value)
+    assert "\n" not in message
+    assert message.startswith(f"{path}: ")
+    assert expected in message, message
+
+
+@pytest.mark.parametrize(
+    "text, expected",
+    [
+        ("envs: [unclosed\n", "line 2, column 1: invalid YAML"),
+        ("envs:\n  a: 1\n  a: 2\n", "line 3, column 3: invalid YAML: duplicate key 'a'"),
+        ("", "expected a mapping with keys envs, demos, algorithms, got None"),
+        ("- 1\n- 2\n", "expected a mapping with keys envs, demos, algorithms, got [1, 2]"),
+    ],
+)
+def test_bad_yaml_fails_with_one_line(tmp_path, text, expected):
+    path = write(tmp_path, text)
+    with pytest.raises(SuiteError) as info:
+        load_suite(path)
+    assert "\n" not in str(info.value)
+    assert str(info.value).startswith(f"{path}: ")
+    assert expected in str(info.value)
+
+
+def test_missing_file_names_the_neighbours(tmp_path):
+    write(tmp_path, base(), "quick.yaml")
+    with pytest.raises(SuiteError, match=r"nope.yaml: no such suite file \(suites there: quick\)"):
+        load_suite(tmp_path / "nope.yaml")
+
+
+def test_suite_error_is_a_value_error():
+    assert issubclass(SuiteError, ValueError)
