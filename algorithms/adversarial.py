@@ -51,14 +51,18 @@ class AdversarialConfig(TRPOConfig):
 
     def __post_init__(self) -> None:
         if self.reward not in REWARDS:
-            raise ValueError(f"reward must be one of {', '.join(map(repr, REWARDS))}, not {self.reward!r}")
+            raise ValueError(
+                f"reward must be one of {', '.join(map(repr, REWARDS))}, not {self.reward!r}"
+            )
         self.hidden, self.disc_hidden = tuple(self.hidden), tuple(self.disc_hidden)
 
 
 class Discriminator(nn.Module):
     """Logit of P(expert | features); observations normalized with the policy's statistics."""
 
-    def __init__(self, norm: RunningNorm, n_obs: int, extra_dim: int, hidden: tuple[int, ...]) -> None:
+    def __init__(
+        self, norm: RunningNorm, n_obs: int, extra_dim: int, hidden: tuple[int, ...]
+    ) -> None:
         super().__init__()
         self.norm, self.n_obs = norm, n_obs  # n_obs observation blocks come first, then raw extras
         obs_dim = norm.mean.numel()
@@ -71,16 +75,21 @@ class Discriminator(nn.Module):
 
 
 def discriminator_step(
-    disc: Discriminator, opt: torch.optim.Optimizer, policy_x: torch.Tensor, expert_x: torch.Tensor,
-    cfg: AdversarialConfig, gen: torch.Generator,
+    disc: Discriminator,
+    opt: torch.optim.Optimizer,
+    policy_x: torch.Tensor,
+    expert_x: torch.Tensor,
+    cfg: AdversarialConfig,
+    gen: torch.Generator,
 ) -> dict[str, float]:
     """`disc_steps` Adam steps of binary cross-entropy, expert labelled 1; returns the last losses."""
     for _ in range(cfg.disc_steps):
         p = policy_x[torch.randint(len(policy_x), (cfg.disc_minibatch,), generator=gen)]
         e = expert_x[torch.randint(len(expert_x), (cfg.disc_minibatch,), generator=gen)]
         logit_p, logit_e = disc(p), disc(e)
-        loss = F.binary_cross_entropy_with_logits(logit_p, torch.zeros_like(logit_p)) + \
-            F.binary_cross_entropy_with_logits(logit_e, torch.ones_like(logit_e))
+        loss = F.binary_cross_entropy_with_logits(
+            logit_p, torch.zeros_like(logit_p)
+        ) + F.binary_cross_entropy_with_logits(logit_e, torch.ones_like(logit_e))
         if cfg.grad_penalty > 0:
             alpha = torch.rand(len(p), 1, generator=gen)
             mix = (alpha * e + (1 - alpha) * p).requires_grad_(True)
@@ -126,7 +135,9 @@ def train_adversarial(
 
     def on_update(steps: int, learner: TRPO, batch: Batch, info: dict[str, float]) -> None:
         logger.log(steps, **stats, kl=info["kl"])
-        logger.checkpoint(steps, DeterministicPolicy(learner.policy, task.action_low, task.action_high))
+        logger.checkpoint(
+            steps, DeterministicPolicy(learner.policy, task.action_low, task.action_high)
+        )
 
     train(task.make_env, budget, seed, reward_fn=reward_fn, callback=on_update, learner=learner)
     return DeterministicPolicy(learner.policy, task.action_low, task.action_high)

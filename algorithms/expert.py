@@ -12,6 +12,10 @@ class ExpertConfig:
     pass
 
 
-@register("expert", config=ExpertConfig, inputs="expert", description="the demonstrator itself (score 1)")
-def train(task: Task, demos: Policy, budget: int, seed: int, logger: Logger, config: ExpertConfig) -> Policy:
+@register(
+    "expert", config=ExpertConfig, inputs="expert", description="the demonstrator itself (score 1)"
+)
+def train(
+    task: Task, demos: Policy, budget: int, seed: int, logger: Logger, config: ExpertConfig
+) -> Policy:
     return demos  # the runner hands the expert policy itself to algorithms with inputs="expert"

@@ -15,7 +15,16 @@ def transitions(batch: Batch) -> np.ndarray:
     return np.concatenate([batch.flat("obs"), batch.flat("next_obs")], axis=1)
 
 
-@register("gaifo", config=AdversarialConfig, inputs="states", description="GAIfO: discriminator on (s, s')")
-def train(task: Task, demos: Demos, budget: int, seed: int, logger: Logger, config: AdversarialConfig) -> Policy:
+@register(
+    "gaifo",
+    config=AdversarialConfig,
+    inputs="states",
+    description="GAIfO: discriminator on (s, s')",
+)
+def train(
+    task: Task, demos: Demos, budget: int, seed: int, logger: Logger, config: AdversarialConfig
+) -> Policy:
     s, s_next = demos.transitions()
-    return train_adversarial(task, np.concatenate([s, s_next], 1), transitions, 2, seed, budget, logger, config)
+    return train_adversarial(
+        task, np.concatenate([s, s_next], 1), transitions, 2, seed, budget, logger, config
+    )

@@ -15,8 +15,19 @@ def state_actions(batch: Batch, low: np.ndarray, high: np.ndarray) -> np.ndarray
     return np.concatenate([batch.flat("obs"), np.clip(batch.flat("actions"), low, high)], axis=1)
 
 
-@register("gail", config=AdversarialConfig, inputs="actions", description="GAIL: discriminator on (s, a)")
-def train(task: Task, demos: ActionDemos, budget: int, seed: int, logger: Logger, config: AdversarialConfig) -> Policy:
+@register(
+    "gail", config=AdversarialConfig, inputs="actions", description="GAIL: discriminator on (s, a)"
+)
+def train(
+    task: Task,
+    demos: ActionDemos,
+    budget: int,
+    seed: int,
+    logger: Logger,
+    config: AdversarialConfig,
+) -> Policy:
     s, a = demos.state_actions()
     features = lambda b: state_actions(b, task.action_low, task.action_high)  # noqa: E731
-    return train_adversarial(task, np.concatenate([s, a], 1), features, 1, seed, budget, logger, config)
+    return train_adversarial(
+        task, np.concatenate([s, a], 1), features, 1, seed, budget, logger, config
+    )

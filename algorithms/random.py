@@ -20,9 +20,15 @@ class UniformPolicy:
         self.rng = np.random.default_rng(seed)
 
     def __call__(self, obs: np.ndarray) -> np.ndarray:
-        return self.rng.uniform(self.low, self.high, size=(len(obs), len(self.low))).astype(np.float32)
+        return self.rng.uniform(self.low, self.high, size=(len(obs), len(self.low))).astype(
+            np.float32
+        )
 
 
-@register("random", config=RandomConfig, inputs="none", description="uniform random actions (score 0)")
-def train(task: Task, demos: None, budget: int, seed: int, logger: Logger, config: RandomConfig) -> UniformPolicy:
+@register(
+    "random", config=RandomConfig, inputs="none", description="uniform random actions (score 0)"
+)
+def train(
+    task: Task, demos: None, budget: int, seed: int, logger: Logger, config: RandomConfig
+) -> UniformPolicy:
     return UniformPolicy(task.action_low, task.action_high, seed)

@@ -7,13 +7,25 @@ import numpy as np
 
 from bench.registry import Logger, Policy, Task, register
 from bench.rl.networks import DeterministicPolicy
-from bench.rl.trpo import TRPOConfig, train as trpo_train
+from bench.rl.trpo import TRPOConfig
+from bench.rl.trpo import train as trpo_train
 
 
-@register("survival", config=TRPOConfig, inputs="none", description="control: TRPO on +1 per step, no demos")
-def train(task: Task, demos: None, budget: int, seed: int, logger: Logger, config: TRPOConfig) -> Policy:
+@register(
+    "survival",
+    config=TRPOConfig,
+    inputs="none",
+    description="control: TRPO on +1 per step, no demos",
+)
+def train(
+    task: Task, demos: None, budget: int, seed: int, logger: Logger, config: TRPOConfig
+) -> Policy:
     def on_update(steps, learner, batch, info):
-        logger.checkpoint(steps, DeterministicPolicy(learner.policy, task.action_low, task.action_high))
+        logger.checkpoint(
+            steps, DeterministicPolicy(learner.policy, task.action_low, task.action_high)
+        )
 
-    learner = trpo_train(task.make_env, budget, seed, config, lambda b: np.ones_like(b.rewards), on_update)
+    learner = trpo_train(
+        task.make_env, budget, seed, config, lambda b: np.ones_like(b.rewards), on_update
+    )
     return DeterministicPolicy(learner.policy, task.action_low, task.action_high)

@@ -5,7 +5,6 @@ from __future__ import annotations
 import argparse
 import sys
 from collections.abc import Callable
-
 from pathlib import Path
 
 from bench.envs import EnvError
@@ -34,10 +33,14 @@ def _experts_list(args: argparse.Namespace) -> int:
     if not rows:
         print(f"no experts in {EXPERTS_DIR}")
         return 0
-    print(f"{'env':36s} {'return (mean +- std)':>22s} {'episodes':>8s} {'train steps':>12s} {'wall':>7s}")
+    print(
+        f"{'env':36s} {'return (mean +- std)':>22s} {'episodes':>8s} {'train steps':>12s} {'wall':>7s}"
+    )
     for m in rows:
         ret = f"{m['return_mean']:.1f} +- {m['return_std']:.1f}"
-        print(f"{m['env_id']:36s} {ret:>22s} {m['eval_episodes']:>8d} {m['train_steps']:>12,d} {m['wall_time_s']:>6.0f}s")
+        print(
+            f"{m['env_id']:36s} {ret:>22s} {m['eval_episodes']:>8d} {m['train_steps']:>12,d} {m['wall_time_s']:>6.0f}s"
+        )
     return 0
 
 
@@ -52,8 +55,13 @@ def _run(args: argparse.Namespace) -> int:
     jobs = args.jobs if args.jobs is not None else suite.runner.jobs
     print(f"suite {suite.name}: {len(specs)} trials -> {results}/", file=sys.stderr)
     summary = run_suite(
-        specs, results, jobs=jobs, backend=backend, scheduler=args.scheduler,
-        retry_failed=args.retry_failed, device=args.device,
+        specs,
+        results,
+        jobs=jobs,
+        backend=backend,
+        scheduler=args.scheduler,
+        retry_failed=args.retry_failed,
+        device=args.device,
     )
     print(
         f"{summary.done} trials done, {summary.failed} failed, "
@@ -102,24 +110,42 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
 
     run = sub.add_parser(
-        "run", help="run a YAML suite (resumable: finished trials are skipped)",
+        "run",
+        help="run a YAML suite (resumable: finished trials are skipped)",
         description="Expand SUITE to env x demos x algorithm x seed trials and run the unfinished ones.",
     )
     run.add_argument("suite", help="path of a suite file, e.g. suites/quick.yaml")
-    run.add_argument("--results", metavar="DIR", help="where records go (default results/<suite name>)")
-    run.add_argument("--jobs", type=int, help="parallel trials (default: the suite's, else all cores)")
+    run.add_argument(
+        "--results", metavar="DIR", help="where records go (default results/<suite name>)"
+    )
+    run.add_argument(
+        "--jobs", type=int, help="parallel trials (default: the suite's, else all cores)"
+    )
     run.add_argument("--retry-failed", action="store_true", help="rerun trials recorded as failed")
-    run.add_argument("--backend", choices=["loky", "dask"], help="joblib backend (default: the suite's, else loky)")
-    run.add_argument("--scheduler", metavar="ADDRESS", help="dask scheduler, e.g. tcp://10.0.0.1:8786 (dask backend)")
-    run.add_argument("--device", default="cpu", help="torch device for networks, e.g. cuda (default cpu)")
+    run.add_argument(
+        "--backend",
+        choices=["loky", "dask"],
+        help="joblib backend (default: the suite's, else loky)",
+    )
+    run.add_argument(
+        "--scheduler",
+        metavar="ADDRESS",
+        help="dask scheduler, e.g. tcp://10.0.0.1:8786 (dask backend)",
+    )
+    run.add_argument(
+        "--device", default="cpu", help="torch device for networks, e.g. cuda (default cpu)"
+    )
     run.set_defaults(func=_run)
 
     plot = sub.add_parser(
-        "plot", help="draw Figure 2, write summary.csv and print a table for each suite's results",
+        "plot",
+        help="draw Figure 2, write summary.csv and print a table for each suite's results",
         description="Find every suite's records under RESULTS_DIR (experts skipped) and draw each.",
     )
     plot.add_argument("results_dir", help="e.g. results/ or results/quick")
-    plot.add_argument("--out", metavar="FILE", help="figure path (.png; a .pdf is written beside it)")
+    plot.add_argument(
+        "--out", metavar="FILE", help="figure path (.png; a .pdf is written beside it)"
+    )
     plot.set_defaults(func=_plot)
 
     lst = sub.add_parser("list", help="registered algorithms and available experts")
@@ -129,10 +155,14 @@ def build_parser() -> argparse.ArgumentParser:
     esub = experts.add_subparsers(dest="experts_command", required=True, metavar="ACTION")
     tr = esub.add_parser("train", help="train a TRPO expert on the env reward and save it")
     tr.add_argument("env_id", help="gymnasium id, e.g. HopperBulletEnv-v0")
-    tr.add_argument("--steps", type=int, default=1_000_000, help="env steps of training (default 1e6)")
+    tr.add_argument(
+        "--steps", type=int, default=1_000_000, help="env steps of training (default 1e6)"
+    )
     tr.add_argument("--seed", type=int, default=0, help="training seed (default 0)")
     tr.add_argument("--n-envs", type=int, default=8, help="envs per batch (default 8)")
-    tr.add_argument("--steps-per-env", type=int, default=256, help="steps per env per update (default 256)")
+    tr.add_argument(
+        "--steps-per-env", type=int, default=256, help="steps per env per update (default 256)"
+    )
     tr.set_defaults(func=_experts_train)
     ls = esub.add_parser("list", help="show the available experts and their returns")
     ls.set_defaults(func=_experts_list)
@@ -147,7 +177,15 @@ def _user_errors() -> tuple[type[Exception], ...]:
     from bench.registry import RegistryError
     from bench.suite import SuiteError
 
-    return (EnvError, SuiteError, RegistryError, ExpertError, DemoError, NormalizationError, FileNotFoundError)
+    return (
+        EnvError,
+        SuiteError,
+        RegistryError,
+        ExpertError,
+        DemoError,
+        NormalizationError,
+        FileNotFoundError,
+    )
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -56,7 +56,9 @@ def evaluate_policy(policy, env_id: str, episodes: int, seed: int, n_envs: int =
             env.close()
 
 
-def save_expert(env_id: str, policy: GaussianPolicy, meta: dict, out_dir: Path | None = None) -> Path:
+def save_expert(
+    env_id: str, policy: GaussianPolicy, meta: dict, out_dir: Path | None = None
+) -> Path:
     out = out_dir or paths.expert_dir(env_id)
     buf = io.BytesIO()
     torch.save({k: v.detach().cpu() for k, v in policy.state_dict().items()}, buf)
@@ -76,7 +78,9 @@ def read_meta(env_id: str) -> dict:
 def load_expert(env_id: str) -> DeterministicPolicy:
     """The shipped expert for `env_id` as a deterministic numpy policy."""
     meta = read_meta(env_id)
-    state = torch.load(paths.expert_dir(env_id) / "policy.pt", weights_only=True, map_location="cpu")
+    state = torch.load(
+        paths.expert_dir(env_id) / "policy.pt", weights_only=True, map_location="cpu"
+    )
     policy = GaussianPolicy(meta["obs_dim"], meta["act_dim"], tuple(meta["hidden"]))
     policy.load_state_dict(state)
     return DeterministicPolicy(policy, np.array(meta["action_low"]), np.array(meta["action_high"]))
@@ -106,14 +110,20 @@ def train_expert(
     start = time.time()
     recent: list[float] = []
     best = {"score": -np.inf, "state": None, "steps": 0}
-    bar = tqdm(total=steps, desc=f"expert {env_id}", unit="step", disable=not progress, smoothing=0.05)
+    bar = tqdm(
+        total=steps, desc=f"expert {env_id}", unit="step", disable=not progress, smoothing=0.05
+    )
 
     def on_update(n: int, learner: TRPO, batch, info: dict) -> None:
         recent.extend(batch.episode_returns)
         del recent[:-20]
         # Snapshot the best training return seen: TRPO sometimes slips late in a run.
         if len(recent) >= 5 and np.mean(recent) > best["score"]:
-            best.update(score=float(np.mean(recent)), state=copy.deepcopy(learner.policy.state_dict()), steps=n)
+            best.update(
+                score=float(np.mean(recent)),
+                state=copy.deepcopy(learner.policy.state_dict()),
+                steps=n,
+            )
         bar.update(batch.n_steps)
         bar.set_postfix(ret=f"{np.mean(recent):.0f}" if recent else "-")
 
@@ -126,7 +136,9 @@ def train_expert(
     for name, state, at in candidates:
         policy = GaussianPolicy(obs_dim, act_dim, cfg.hidden)
         policy.load_state_dict(state)
-        rets = evaluate_policy(DeterministicPolicy(policy, low, high), env_id, EVAL_EPISODES, seed=10_000)
+        rets = evaluate_policy(
+            DeterministicPolicy(policy, low, high), env_id, EVAL_EPISODES, seed=10_000
+        )
         scored.append((float(np.mean(rets)), float(np.std(rets)), name, policy, at))
     mean, std, which, policy, at = max(scored, key=lambda s: s[0])
     meta = {

@@ -17,4 +17,6 @@ def expert_dir(env_id: str) -> Path:
 
 
 def has_expert(env_id: str) -> bool:
-    return (expert_dir(env_id) / "policy.pt").is_file() and (expert_dir(env_id) / "meta.json").is_file()
+    return (expert_dir(env_id) / "policy.pt").is_file() and (
+        expert_dir(env_id) / "meta.json"
+    ).is_file()

@@ -104,9 +104,15 @@ def run_trial(spec: TrialSpec, inputs: Any, device: str = "cpu") -> TrialResult:
         torch.manual_seed(spec.seed)
         algo = registry.get(spec.algorithm)
         obs_dim, act_dim, low, high = envs.spaces(spec.env_id)
-        eval_envs += [envs.make(spec.env_id, eval_seed + i) for i in range(min(10, spec.eval_episodes))]
+        eval_envs += [
+            envs.make(spec.env_id, eval_seed + i) for i in range(min(10, spec.eval_episodes))
+        ]
         task = registry.Task(
-            spec.env_id, obs_dim, act_dim, low, high,
+            spec.env_id,
+            obs_dim,
+            act_dim,
+            low,
+            high,
             make_env=lambda s: StepCounter(envs.make(spec.env_id, s), tally, spec.budget),
             device=device,
         )
@@ -122,9 +128,15 @@ def run_trial(spec: TrialSpec, inputs: Any, device: str = "cpu") -> TrialResult:
         for env in eval_envs:
             env.close()
     return TrialResult(
-        spec=spec, status=status, returns=[float(r) for r in returns], curve=logger.curve,
-        env_steps=tally[0], wall_time=round(time.time() - start, 3), versions=versions(),
-        traceback=tb, logs=logger.logs,
+        spec=spec,
+        status=status,
+        returns=[float(r) for r in returns],
+        curve=logger.curve,
+        env_steps=tally[0],
+        wall_time=round(time.time() - start, 3),
+        versions=versions(),
+        traceback=tb,
+        logs=logger.logs,
     )
 
 
@@ -167,10 +179,16 @@ def run_suite(
     if not todo:
         return RunSummary(0, 0, skipped)
     for env_id in sorted({s.env_id for s in todo}):  # record demo pools once, before forking
-        if any(registry.get(s.algorithm).inputs in ("states", "actions") for s in todo if s.env_id == env_id):
+        if any(
+            registry.get(s.algorithm).inputs in ("states", "actions")
+            for s in todo
+            if s.env_id == env_id
+        ):
             demos.ensure_pool(env_id)
     done = failed = 0
-    bar = tqdm(total=len(todo), desc="trials", unit="trial", disable=not progress, dynamic_ncols=True)
+    bar = tqdm(
+        total=len(todo), desc="trials", unit="trial", disable=not progress, dynamic_ncols=True
+    )
     client = None
     try:
         if backend == "dask":
@@ -181,7 +199,9 @@ def run_suite(
         else:
             ctx = joblib.parallel_config(backend=backend, n_jobs=jobs)
         with ctx:
-            parallel = joblib.Parallel(n_jobs=jobs, return_as="generator_unordered", pre_dispatch="n_jobs")
+            parallel = joblib.Parallel(
+                n_jobs=jobs, return_as="generator_unordered", pre_dispatch="n_jobs"
+            )
             for result in parallel(_jobs(todo, device)):
                 store.write(results_dir, result)
                 if result.status == "ok":
@@ -189,7 +209,9 @@ def run_suite(
                 else:
                     failed += 1
                     last = (result.traceback or "").strip().splitlines()[-1:] or ["?"]
-                    bar.write(f"failed: {result.spec.env_id} {result.spec.algorithm} seed {result.spec.seed}: {last[0]}")
+                    bar.write(
+                        f"failed: {result.spec.env_id} {result.spec.algorithm} seed {result.spec.seed}: {last[0]}"
+                    )
                 bar.update(1)
                 bar.set_postfix(done=done, failed=failed)
     finally:

@@ -51,9 +51,13 @@ def trpo_steps_per_s(env_id: str, steps: int, reward_fn=None) -> float:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser = argparse.ArgumentParser(
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
     parser.add_argument("--steps", type=int, default=60_000)
-    parser.add_argument("--envs", nargs="+", default=["InvertedPendulumBulletEnv-v0", "HopperBulletEnv-v0"])
+    parser.add_argument(
+        "--envs", nargs="+", default=["InvertedPendulumBulletEnv-v0", "HopperBulletEnv-v0"]
+    )
     args = parser.parse_args()
     torch.set_num_threads(1)
     print(f"{'env':32s} {'raw steps/s':>12s} {'TRPO steps/s':>13s} {'ratio':>6s}")

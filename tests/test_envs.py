@@ -51,7 +51,9 @@ def test_pybullet_noise_does_not_reach_stdout():
 
 def test_cli_unknown_env_exits_2_with_one_line():
     out = subprocess.run(
-        [sys.executable, "-m", "bench.cli", "experts", "train", "NoSuchEnv-v0"], capture_output=True, text=True
+        [sys.executable, "-m", "bench.cli", "experts", "train", "NoSuchEnv-v0"],
+        capture_output=True,
+        text=True,
     )
     assert out.returncode == 2
     assert out.stderr.strip() == "bench: error: unknown env id 'NoSuchEnv-v0'"

@@ -15,7 +15,9 @@ def tiny_expert(tmp_path_factory, pendulum="InvertedPendulumBulletEnv-v0"):
     mp = pytest.MonkeyPatch()
     mp.setattr(paths, "EXPERTS_DIR", root)
     mp.setattr(paths, "CACHE_DIR", root / "cache")
-    meta = experts.train_expert(pendulum, 8192, seed=0, cfg=TRPOConfig(n_envs=4, steps_per_env=512), progress=False)
+    meta = experts.train_expert(
+        pendulum, 8192, seed=0, cfg=TRPOConfig(n_envs=4, steps_per_env=512), progress=False
+    )
     yield pendulum, meta
     mp.undo()
 
@@ -23,7 +25,15 @@ def tiny_expert(tmp_path_factory, pendulum="InvertedPendulumBulletEnv-v0"):
 def test_expert_round_trip_reproduces_its_recorded_return(tiny_expert):
     env_id, meta = tiny_expert
     assert (paths.expert_dir(env_id) / "policy.pt").is_file()
-    for key in ("env_id", "train_steps", "wall_time_s", "seed", "package_version", "return_mean", "return_std"):
+    for key in (
+        "env_id",
+        "train_steps",
+        "wall_time_s",
+        "seed",
+        "package_version",
+        "return_mean",
+        "return_std",
+    ):
         assert key in meta
     policy = experts.load_expert(env_id)  # torch.load(weights_only=True) inside
     returns = experts.evaluate_policy(policy, env_id, experts.EVAL_EPISODES, seed=10_000)
@@ -60,13 +70,17 @@ def test_demo_draw_is_deterministic_and_seed_dependent(tiny_expert):
     again = demos.load_demos(path, env_id, k=5, seed=1).observations
     other = demos.load_demos(path, env_id, k=5, seed=2).observations
     assert all(np.array_equal(a, b) for a, b in zip(first, again, strict=True))
-    assert not all(len(a) == len(b) and np.array_equal(a, b) for a, b in zip(first, other, strict=True))
+    assert not all(
+        len(a) == len(b) and np.array_equal(a, b) for a, b in zip(first, other, strict=True)
+    )
 
 
 def test_demo_file_from_another_env_is_rejected(tiny_expert, tmp_path):
     env_id, _ = tiny_expert
     path = demos.ensure_pool(env_id)
-    with pytest.raises(demos.DemoError, match=f"holds demonstrations of {env_id}, not HopperBulletEnv-v0"):
+    with pytest.raises(
+        demos.DemoError, match=f"holds demonstrations of {env_id}, not HopperBulletEnv-v0"
+    ):
         demos.load_demos(path, "HopperBulletEnv-v0")
     junk = tmp_path / "junk.npz"
     junk.write_text("not a zip")

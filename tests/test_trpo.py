@@ -54,7 +54,12 @@ def test_collector_keeps_true_final_observation(pendulum):
 
 def test_training_is_seeded(pendulum):
     def run():
-        learner = train(lambda s: envs.make(pendulum, s), 4096, seed=1, cfg=TRPOConfig(n_envs=2, steps_per_env=1024))
+        learner = train(
+            lambda s: envs.make(pendulum, s),
+            4096,
+            seed=1,
+            cfg=TRPOConfig(n_envs=2, steps_per_env=1024),
+        )
         return torch.nn.utils.parameters_to_vector(learner.policy.parameters()).detach()
 
     torch.testing.assert_close(run(), run(), rtol=0, atol=0)
@@ -67,13 +72,21 @@ def test_custom_reward_replaces_env_reward(pendulum):
         seen.append(batch.obs.shape)
         return np.zeros_like(batch.rewards)
 
-    train(lambda s: envs.make(pendulum, s), 2048, 0, TRPOConfig(n_envs=2, steps_per_env=512), reward_fn=reward_fn)
+    train(
+        lambda s: envs.make(pendulum, s),
+        2048,
+        0,
+        TRPOConfig(n_envs=2, steps_per_env=512),
+        reward_fn=reward_fn,
+    )
     assert seen == [(512, 2, 5), (512, 2, 5)]
 
 
 def test_trpo_solves_inverted_pendulum_within_100k_steps(pendulum):
     steps = []
-    learner = train(lambda s: envs.make(pendulum, s), 100_000, seed=1, callback=lambda n, *_: steps.append(n))
+    learner = train(
+        lambda s: envs.make(pendulum, s), 100_000, seed=1, callback=lambda n, *_: steps.append(n)
+    )
     assert steps[-1] <= 100_000
     policy = DeterministicPolicy(learner.policy, np.array([-1.0]), np.array([1.0]))
     returns = evaluate_policy(policy, pendulum, episodes=10, seed=123)

@@ -27,7 +27,9 @@ class RunningNorm(nn.Module):
     @torch.no_grad()
     def update(self, x: np.ndarray) -> None:
         """Fold a (B, O) batch into the statistics (parallel Welford)."""
-        x = torch.as_tensor(x, dtype=torch.float64, device=self.mean.device).reshape(-1, self.mean.numel())
+        x = torch.as_tensor(x, dtype=torch.float64, device=self.mean.device).reshape(
+            -1, self.mean.numel()
+        )
         n = x.shape[0]
         if n == 0:
             return
@@ -35,7 +37,9 @@ class RunningNorm(nn.Module):
         total = self.count + n
         delta = b_mean - self.mean
         self.mean += delta * n / total
-        self.var.copy_((self.var * self.count + b_var * n + delta.square() * self.count * n / total) / total)
+        self.var.copy_(
+            (self.var * self.count + b_var * n + delta.square() * self.count * n / total) / total
+        )
         self.count.fill_(total.item())
 
     def forward(self, x: torch.Tensor) -> torch.Tensor:
@@ -58,7 +62,9 @@ class GaussianPolicy(nn.Module):
     Takes raw observations; normalizes them with its own `norm`.
     """
 
-    def __init__(self, obs_dim: int, act_dim: int, hidden: tuple[int, ...] = (64, 64), log_std: float = -0.5):
+    def __init__(
+        self, obs_dim: int, act_dim: int, hidden: tuple[int, ...] = (64, 64), log_std: float = -0.5
+    ):
         super().__init__()
         self.norm = RunningNorm(obs_dim)
         self.mean_net = mlp([obs_dim, *hidden, act_dim])
@@ -76,7 +82,11 @@ class GaussianPolicy(nn.Module):
     def log_prob(self, mean: torch.Tensor, actions: torch.Tensor) -> torch.Tensor:
         """(B,) log density of `actions` under N(mean, exp(log_std)^2)."""
         z = (actions - mean) * torch.exp(-self.log_std)
-        return -0.5 * z.square().sum(-1) - self.log_std.sum() - 0.5 * math.log(2 * math.pi) * z.shape[-1]
+        return (
+            -0.5 * z.square().sum(-1)
+            - self.log_std.sum()
+            - 0.5 * math.log(2 * math.pi) * z.shape[-1]
+        )
 
 
 class ValueNet(nn.Module):

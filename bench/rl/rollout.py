@@ -62,7 +62,9 @@ class VecCollector:
 
     def __init__(self, envs: list[gym.Env], seed: int) -> None:
         self.envs = envs
-        self.obs = np.stack([env.reset(seed=seed + i)[0] for i, env in enumerate(envs)]).astype(np.float32)
+        self.obs = np.stack([env.reset(seed=seed + i)[0] for i, env in enumerate(envs)]).astype(
+            np.float32
+        )
         self.t = np.zeros(len(envs), dtype=np.int64)
         self.ret = np.zeros(len(envs), dtype=np.float64)
         self.low = envs[0].action_space.low.astype(np.float32)
@@ -72,10 +74,10 @@ class VecCollector:
     @torch.no_grad()
     def collect(self, policy: GaussianPolicy, steps_per_env: int) -> Batch:
         T, E = steps_per_env, len(self.envs)
-        O, A = self.obs.shape[1], self.low.shape[0]
-        obs = np.empty((T, E, O), np.float32)
-        next_obs = np.empty((T, E, O), np.float32)
-        actions = np.empty((T, E, A), np.float32)
+        obs_dim, act_dim = self.obs.shape[1], self.low.shape[0]
+        obs = np.empty((T, E, obs_dim), np.float32)
+        next_obs = np.empty((T, E, obs_dim), np.float32)
+        actions = np.empty((T, E, act_dim), np.float32)
         rewards = np.empty((T, E), np.float32)
         terminated = np.zeros((T, E), bool)
         truncated = np.zeros((T, E), bool)
@@ -88,7 +90,9 @@ class VecCollector:
             obs[t] = self.obs
             timesteps[t] = self.t
             mean = policy(torch.from_numpy(self.obs).to(device))
-            act = (mean + std * torch.randn(mean.shape, generator=self.gen).to(device)).cpu().numpy()
+            act = (
+                (mean + std * torch.randn(mean.shape, generator=self.gen).to(device)).cpu().numpy()
+            )
             actions[t] = act
             clipped = np.clip(act, self.low, self.high)
             for i, env in enumerate(self.envs):
@@ -104,7 +108,17 @@ class VecCollector:
                     o, _ = env.reset()
                     self.ret[i], self.t[i] = 0.0, 0
                 self.obs[i] = o
-        return Batch(obs, actions, next_obs, rewards, terminated, truncated, timesteps, ep_returns, ep_lengths)
+        return Batch(
+            obs,
+            actions,
+            next_obs,
+            rewards,
+            terminated,
+            truncated,
+            timesteps,
+            ep_returns,
+            ep_lengths,
+        )
 
     def close(self) -> None:
         for env in self.envs:

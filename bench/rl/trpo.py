@@ -17,7 +17,7 @@ import gymnasium as gym
 import numpy as np
 import torch
 
-from bench.rl.networks import GaussianPolicy, ValueNet
+from bench.rl.networks import GaussianPolicy, RunningNorm, ValueNet
 from bench.rl.rollout import Batch, RewardFn, VecCollector
 
 
@@ -47,6 +47,8 @@ class TRPOConfig:
     """Passes over the batch for value regression."""
     vf_minibatch: int = 256
     """Value regression minibatch size."""
+    scale_rewards: bool = True
+    """Divide rewards by a running std of the discounted return, so value targets stay O(1)."""
     hidden: tuple[int, ...] = (64, 64)
     """Hidden layer sizes of policy and value MLPs."""
     init_log_std: float = -0.5
@@ -83,7 +85,9 @@ def gae(
     return adv, adv + values
 
 
-def conjugate_gradient(fvp: Callable[[torch.Tensor], torch.Tensor], b: torch.Tensor, iters: int) -> torch.Tensor:
+def conjugate_gradient(
+    fvp: Callable[[torch.Tensor], torch.Tensor], b: torch.Tensor, iters: int
+) -> torch.Tensor:
     """Approximately solve F x = b."""
     x = torch.zeros_like(b)
     r, p = b.clone(), b.clone()
@@ -105,7 +109,13 @@ def _flat_params(module: torch.nn.Module) -> list[torch.nn.Parameter]:
     return [p for p in module.parameters() if p.requires_grad]
 
 
-def policy_step(policy: GaussianPolicy, obs: torch.Tensor, actions: torch.Tensor, adv: torch.Tensor, cfg: TRPOConfig) -> dict[str, float]:
+def policy_step(
+    policy: GaussianPolicy,
+    obs: torch.Tensor,
+    actions: torch.Tensor,
+    adv: torch.Tensor,
+    cfg: TRPOConfig,
+) -> dict[str, float]:
     """One natural-gradient step on the surrogate advantage inside the KL trust region."""
     params = _flat_params(policy)
     with torch.no_grad():
@@ -127,7 +137,9 @@ def policy_step(policy: GaussianPolicy, obs: torch.Tensor, actions: torch.Tensor
     loss = surrogate()
     g = torch.cat([x.reshape(-1) for x in torch.autograd.grad(loss, params)])
     sub = slice(None, None, cfg.fisher_subsample)
-    grad_kl = torch.cat([x.reshape(-1) for x in torch.autograd.grad(kl(sub), params, create_graph=True)])
+    grad_kl = torch.cat(
+        [x.reshape(-1) for x in torch.autograd.grad(kl(sub), params, create_graph=True)]
+    )
 
     def fvp(v: torch.Tensor) -> torch.Tensor:
         hv = torch.autograd.grad(grad_kl @ v, params, retain_graph=True)
@@ -144,12 +156,24 @@ def policy_step(policy: GaussianPolicy, obs: torch.Tensor, actions: torch.Tensor
             torch.nn.utils.vector_to_parameters(old + frac * full_step, params)
             new_kl, improve = kl().item(), surrogate().item() - base
             if np.isfinite(improve) and new_kl <= 1.5 * cfg.max_kl and improve > 0:
-                return {"kl": new_kl, "improvement": improve, "expected": expected * frac, "step_frac": float(frac)}
+                return {
+                    "kl": new_kl,
+                    "improvement": improve,
+                    "expected": expected * frac,
+                    "step_frac": float(frac),
+                }
         torch.nn.utils.vector_to_parameters(old, params)
     return {"kl": 0.0, "improvement": 0.0, "expected": expected, "step_frac": 0.0}
 
 
-def value_step(value: ValueNet, opt: torch.optim.Optimizer, obs: torch.Tensor, targets: torch.Tensor, cfg: TRPOConfig, gen: torch.Generator) -> float:
+def value_step(
+    value: ValueNet,
+    opt: torch.optim.Optimizer,
+    obs: torch.Tensor,
+    targets: torch.Tensor,
+    cfg: TRPOConfig,
+    gen: torch.Generator,
+) -> float:
     n = obs.shape[0]
     loss = torch.zeros(())
     for _ in range(cfg.vf_epochs):
@@ -174,23 +198,54 @@ class TRPO:
         self.value = ValueNet(self.policy.norm, obs_dim, cfg.hidden).to(self.device)
         self.vf_opt = torch.optim.Adam(self.value.net.parameters(), lr=cfg.vf_lr)
         self.gen = torch.Generator().manual_seed(seed + 1)
+        self.return_norm = RunningNorm(1)
+        self.discounted: np.ndarray | None = None  # running discounted return per env
+
+    def scale(self, rewards: np.ndarray, ends: np.ndarray) -> np.ndarray:
+        """Rewards divided by the running std of the discounted return (VecNormalize-style)."""
+        if self.discounted is None:
+            self.discounted = np.zeros(rewards.shape[1])
+        seen = np.empty_like(rewards, dtype=np.float64)
+        for t in range(len(rewards)):
+            self.discounted = self.discounted * self.cfg.gamma + rewards[t]
+            seen[t] = self.discounted
+            self.discounted[ends[t]] = 0.0
+        self.return_norm.update(seen.reshape(-1, 1))
+        return (rewards / np.sqrt(self.return_norm.var.item() + 1e-8)).astype(np.float32)
 
     def update(self, batch: Batch, rewards: np.ndarray) -> dict[str, float]:
         """Normalizer, then policy, then value: one TRPO iteration on (T, E) `rewards`."""
         cfg = self.cfg
         self.policy.norm.update(batch.flat("obs"))
         T, E = rewards.shape
+        if cfg.scale_rewards:
+            rewards = self.scale(rewards, batch.terminated | batch.truncated)
         obs = torch.from_numpy(batch.flat("obs")).to(self.device)
         next_obs = torch.from_numpy(batch.flat("next_obs")).to(self.device)
         with torch.no_grad():
             values = self.value(obs).cpu().numpy().reshape(T, E)
             next_values = self.value(next_obs).cpu().numpy().reshape(T, E)
-        adv, targets = gae(rewards.astype(np.float32), values, next_values, batch.terminated, batch.truncated, cfg.gamma, cfg.gae_lambda)
+        adv, targets = gae(
+            rewards.astype(np.float32),
+            values,
+            next_values,
+            batch.terminated,
+            batch.truncated,
+            cfg.gamma,
+            cfg.gae_lambda,
+        )
         adv_t = torch.from_numpy(adv.reshape(-1)).to(self.device)
         adv_t = (adv_t - adv_t.mean()) / (adv_t.std() + 1e-8)
         actions = torch.from_numpy(batch.flat("actions")).to(self.device)
         info = policy_step(self.policy, obs, actions, adv_t, cfg)
-        info["vf_loss"] = value_step(self.value, self.vf_opt, obs, torch.from_numpy(targets.reshape(-1)).to(self.device), cfg, self.gen)
+        info["vf_loss"] = value_step(
+            self.value,
+            self.vf_opt,
+            obs,
+            torch.from_numpy(targets.reshape(-1)).to(self.device),
+            cfg,
+            self.gen,
+        )
         return info
 
 
@@ -213,6 +268,10 @@ def train(
     share its observation normalizer); its config then overrides `cfg`.
     """
     cfg = learner.cfg if learner is not None else cfg or TRPOConfig()
+    if budget < cfg.batch_size:
+        raise ValueError(
+            f"a budget of {budget} env steps is less than one TRPO batch ({cfg.batch_size})"
+        )
     torch.set_num_threads(1)
     envs = [make_env(seed * 1000 + i) for i in range(cfg.n_envs)]
     obs_dim = int(np.prod(envs[0].observation_space.shape))

@@ -1,0 +1,33 @@
+# Two commands do everything on a fresh machine:
+#   make run    install, then run suites/quick.yaml end to end and draw its figure
+#   make test   install, then lint and run the test suite
+PYTHON ?= python3
+VENV ?= .venv
+BIN := $(VENV)/bin
+SUITE ?= suites/quick.yaml
+
+.PHONY: install run test bench clean
+
+$(BIN)/.installed: pyproject.toml
+	$(PYTHON) -m venv $(VENV)
+	$(BIN)/python -m pip install -q --upgrade pip
+	# torch first, pinned: the CPU wheel. Unpinned, pip would pull gigabytes of CUDA packages.
+	$(BIN)/python -m pip install -q torch==2.13.0
+	$(BIN)/python -m pip install -q -e '.[test,distributed]'
+	touch $@
+
+install: $(BIN)/.installed
+
+run: install
+	$(BIN)/bench run $(SUITE)
+	$(BIN)/bench plot results/$(basename $(notdir $(SUITE)))
+
+test: install
+	$(BIN)/ruff check .
+	$(BIN)/python -m pytest -q
+
+bench: install
+	$(BIN)/python benchmarks/throughput.py
+
+clean:
+	rm -rf .cache .pytest_cache

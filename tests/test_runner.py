@@ -1,0 +1,173 @@
+"""The runner for real: loky and dask workers, SIGKILL and resume, plugins, failures."""
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from bench import store
+from bench.runner import run_suite
+from bench.suite import expand, load_suite
+
+PENDULUM = "InvertedPendulumBulletEnv-v0"
+
+
+def write_suite(folder: Path, name: str, body: str) -> Path:
+    path = folder / f"{name}.yaml"
+    path.write_text(f"name: {name}\n{body}")
+    return path
+
+
+def bench(*args: str, **kw) -> subprocess.CompletedProcess:
+    return subprocess.run(
+        [sys.executable, "-m", "bench.cli", *args], capture_output=True, text=True, **kw
+    )
+
+
+@pytest.fixture(autouse=True)
+def demo_cache(tmp_path, monkeypatch):
+    monkeypatch.setenv("IFO_BENCH_CACHE", str(tmp_path / "cache"))
+    monkeypatch.setattr("bench.paths.CACHE_DIR", tmp_path / "cache")
+
+
+def test_killed_run_resumes_without_losing_or_duplicating(tmp_path):
+    suite = write_suite(
+        tmp_path,
+        "kill",
+        f"envs: {{{PENDULUM}: {{budget: 6144}}}}\ndemos: [1]\nalgorithms: [survival]\nseeds: 8\neval_episodes: 2\n",
+    )
+    results = tmp_path / "res"
+    proc = subprocess.Popen(
+        [
+            sys.executable,
+            "-m",
+            "bench.cli",
+            "run",
+            str(suite),
+            "--results",
+            str(results),
+            "--jobs",
+            "2",
+        ],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+        start_new_session=True,
+    )
+    deadline = time.time() + 120
+    while len(list((results / "trials").glob("*.json"))) < 3 and time.time() < deadline:
+        time.sleep(0.05)
+    os.killpg(proc.pid, signal.SIGKILL)  # driver and workers, mid-run
+    proc.wait()
+    before = {p.name: p.read_bytes() for p in (results / "trials").glob("*.json")}
+    assert 3 <= len(before) < 8, "the kill should land mid-run"
+    for data in before.values():
+        json.loads(data)  # every record on disk is whole
+
+    out = bench("run", str(suite), "--results", str(results), "--jobs", "2")
+    assert out.returncode == 0, out.stderr
+    assert f"{len(before)} already finished" in out.stdout
+    after = {p.name: p.read_bytes() for p in (results / "trials").glob("*.json")}
+    assert len(after) == 8 and not list((results / "trials").glob("*.tmp"))
+    assert all(after[name] == data for name, data in before.items())  # finished trials untouched
+    ids = {s.trial_id for s in expand(load_suite(suite))}
+    assert {name.removesuffix(".json") for name in after} == ids
+
+
+def test_dask_backend_matches_loky(tmp_path):
+    distributed = pytest.importorskip("distributed")
+    suite = write_suite(
+        tmp_path,
+        "dask",
+        f"envs: {{{PENDULUM}: {{budget: 4096}}}}\ndemos: [1]\nalgorithms: [random, gaifo]\nseeds: 2\neval_episodes: 2\n",
+    )
+    specs = expand(load_suite(suite))
+    loky = run_suite(specs, tmp_path / "loky", jobs=2, progress=False)
+    assert loky.done == len(specs) == 4
+    with distributed.LocalCluster(
+        n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None
+    ) as cluster:
+        dask = run_suite(
+            specs,
+            tmp_path / "dask",
+            backend="dask",
+            scheduler=cluster.scheduler_address,
+            progress=False,
+        )
+    assert dask.done == 4
+    a, b = store.load(tmp_path / "loky"), store.load(tmp_path / "dask")
+    np.testing.assert_array_equal(a["return"].to_numpy(), b["return"].to_numpy())
+    np.testing.assert_array_equal(a["env_steps"].to_numpy(), b["env_steps"].to_numpy())
+
+
+def test_failing_trial_is_recorded_and_retried(tmp_path):
+    suite = write_suite(
+        tmp_path,
+        "fail",
+        f"envs: {{{PENDULUM}: {{budget: 1000}}}}\ndemos: [1]\nalgorithms: [random, survival]\nseeds: 1\neval_episodes: 1\n",
+    )
+    results = tmp_path / "res"
+    # survival's first batch (8 x 256 steps) is bigger than the budget: TRPO refuses to start.
+    out = bench("run", str(suite), "--results", str(results), "--jobs", "1")
+    assert out.returncode == 1
+    assert "1 trials done, 1 failed" in out.stdout
+    df = store.load(results)
+    failed = df[df.status == "failed"]
+    assert list(failed.algorithm) == ["survival"]
+    record = store.read(store.record_path(results, failed.trial_id.iloc[0]))
+    assert "less than one TRPO batch" in record.traceback
+    out = bench("run", str(suite), "--results", str(results), "--jobs", "1")
+    assert "0 trials done, 0 failed, 2 already finished" in out.stdout
+    out = bench("run", str(suite), "--results", str(results), "--jobs", "1", "--retry-failed")
+    assert "0 trials done, 1 failed, 1 already finished" in out.stdout
+
+
+def test_plugin_algorithm_through_an_entry_point(tmp_path):
+    pkg = tmp_path / "plugin_src"
+    (pkg / "zero_ifo").mkdir(parents=True)
+    (pkg / "pyproject.toml").write_text(
+        '[build-system]\nrequires = ["setuptools"]\nbuild-backend = "setuptools.build_meta"\n'
+        '[project]\nname = "zero-ifo"\nversion = "0.0.1"\n'
+        '[project.entry-points."ifo_bench.algorithms"]\nzero = "zero_ifo"\n'
+    )
+    (pkg / "zero_ifo" / "__init__.py").write_text(
+        "from dataclasses import dataclass\nimport numpy as np\nfrom bench.registry import register\n\n"
+        "@dataclass\nclass ZeroConfig:\n    scale: float = 0.0\n\n"
+        "@register('zero', config=ZeroConfig, inputs='states', description='always the zero action')\n"
+        "def train(task, demos, budget, seed, logger, config):\n"
+        "    assert not hasattr(demos, 'actions')\n"
+        "    return lambda obs: np.zeros((len(obs), task.act_dim), np.float32) + config.scale\n"
+    )
+    site = tmp_path / "site"
+    subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "pip",
+            "install",
+            "-q",
+            "--no-deps",
+            "--no-build-isolation",
+            "--target",
+            str(site),
+            str(pkg),
+        ],
+        check=True,
+        capture_output=True,
+    )
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(site), *sys.path])}
+    listed = bench("list", env=env)
+    assert "zero" in listed.stdout and "always the zero action" in listed.stdout
+    suite = write_suite(
+        tmp_path,
+        "plug",
+        f"envs: {{{PENDULUM}: {{budget: 1000}}}}\ndemos: [1]\nalgorithms: [{{zero: {{scale: 0.1}}}}]\nseeds: 1\neval_episodes: 1\n",
+    )
+    out = bench("run", str(suite), "--results", str(tmp_path / "res"), "--jobs", "1", env=env)
+    assert out.returncode == 0, out.stderr
+    assert store.load(tmp_path / "res").algorithm.tolist() == ["zero"]
