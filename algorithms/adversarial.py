@@ -34,7 +34,10 @@ REWARDS: dict[str, Callable[[torch.Tensor], torch.Tensor]] = {
 
 @dataclass
 class AdversarialConfig(TRPOConfig):
-    """TRPO's settings (inherited) plus the discriminator's."""
+    """TRPO's settings (inherited, two defaults changed) plus the discriminator's."""
+
+    init_log_std: float = -0.5
+    """Less action noise than plain TRPO: a noisy policy is told apart from the expert by its noise alone."""
 
     disc_hidden: tuple[int, ...] = (100, 100)
     """Hidden layer sizes of the discriminator MLP (tanh)."""
@@ -44,8 +47,8 @@ class AdversarialConfig(TRPOConfig):
     """Discriminator minibatch steps per policy update."""
     disc_minibatch: int = 256
     """Policy samples (and as many expert samples) per discriminator step."""
-    grad_penalty: float = 0.0
-    """Weight of a gradient penalty on expert/policy interpolates; 0 disables it."""
+    grad_penalty: float = 1.0
+    """Weight of a gradient penalty on expert/policy interpolates (smooths D); 0 disables it."""
     reward: str = "-log(1-D)"
     """Policy reward as a function of D = P(expert): "-log(1-D)", "log D" or "log D - log(1-D)"."""
 

@@ -29,7 +29,7 @@ class TRPOConfig:
     """Steps collected from each env per update; the batch is n_envs * steps_per_env."""
     gamma: float = 0.99
     """Discount factor."""
-    gae_lambda: float = 0.97
+    gae_lambda: float = 0.95
     """GAE(lambda) bias/variance trade-off."""
     max_kl: float = 0.01
     """Trust region: mean KL(old || new) allowed per update."""
@@ -51,7 +51,7 @@ class TRPOConfig:
     """Divide rewards by a running std of the discounted return, so value targets stay O(1)."""
     hidden: tuple[int, ...] = (64, 64)
     """Hidden layer sizes of policy and value MLPs."""
-    init_log_std: float = -0.5
+    init_log_std: float = 0.0
     """Initial log standard deviation of the policy."""
     device: str = "cpu"
     """Where the networks live; rollouts always step on the CPU."""

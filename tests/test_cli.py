@@ -1,0 +1,100 @@
+"""Bad input at the command line: one clear line, exit status 2, results untouched."""
+
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+PENDULUM = "InvertedPendulumBulletEnv-v0"
+GOOD = (
+    f"envs: {{{PENDULUM}: {{budget: 2048}}}}\ndemos: [1]\nalgorithms: [random, expert]\nseeds: 1\n"
+)
+
+
+def bench(*args: str) -> subprocess.CompletedProcess:
+    return subprocess.run(
+        [sys.executable, "-m", "bench.cli", *args], capture_output=True, text=True
+    )
+
+
+@pytest.fixture(scope="module")
+def finished_results(tmp_path_factory) -> Path:
+    """A results folder holding real records, which no bad command may touch."""
+    root = tmp_path_factory.mktemp("cli")
+    (root / "good.yaml").write_text("name: good\n" + GOOD)
+    out = bench("run", str(root / "good.yaml"), "--results", str(root / "res"), "--jobs", "1")
+    assert out.returncode == 0, out.stderr
+    return root / "res"
+
+
+def snapshot(folder: Path) -> dict[str, bytes]:
+    return {
+        str(p.relative_to(folder)): p.read_bytes() for p in sorted(folder.rglob("*")) if p.is_file()
+    }
+
+
+BAD_SUITES = {
+    "unknown top-level key": (GOOD + "seeeds: 3\n", "seeeds"),
+    "unknown algorithm": (GOOD.replace("[random, expert]", "[random, expert, gaifoo]"), "gaifoo"),
+    "unknown hyperparameter": (
+        GOOD.replace("[random, expert]", "[random, expert, {gaifo: {lr: 0.1}}]"),
+        "lr",
+    ),
+    "unknown env": (GOOD.replace(PENDULUM, "NoSuchEnv-v0"), "NoSuchEnv-v0"),
+    "missing expert": (GOOD.replace(PENDULUM, "ReacherBulletEnv-v0"), "expert"),
+    "too many demos": (GOOD.replace("demos: [1]", "demos: [1, 50]"), "demos"),
+    "wrong type": (GOOD.replace("budget: 2048", "budget: lots"), "budget"),
+    "empty list": (GOOD.replace("demos: [1]", "demos: []"), "demos"),
+    "yaml syntax": ("envs: [unclosed\n", "yaml"),
+}
+
+
+@pytest.mark.parametrize("case", sorted(BAD_SUITES))
+def test_bad_suite_is_one_line_exit_2_and_touches_nothing(case, finished_results, tmp_path):
+    body, needle = BAD_SUITES[case]
+    suite = tmp_path / "bad.yaml"
+    suite.write_text(body)
+    before = snapshot(finished_results)
+    out = bench("run", str(suite), "--results", str(finished_results))
+    assert out.returncode == 2
+    lines = out.stderr.strip().splitlines()
+    assert len(lines) == 1 and "Traceback" not in out.stderr, out.stderr
+    assert str(suite) in lines[0] and needle.lower() in lines[0].lower(), lines[0]
+    assert snapshot(finished_results) == before
+
+
+def test_missing_suite_file():
+    out = bench("run", "no/such/suite.yaml")
+    assert (
+        out.returncode == 2 and out.stderr.count("\n") == 1 and "no/such/suite.yaml" in out.stderr
+    )
+
+
+def test_plot_without_reference_trials_names_what_is_missing(tmp_path):
+    (tmp_path / "s.yaml").write_text("name: s\n" + GOOD.replace("[random, expert]", "[random]"))
+    assert (
+        bench(
+            "run", str(tmp_path / "s.yaml"), "--results", str(tmp_path / "res"), "--jobs", "1"
+        ).returncode
+        == 0
+    )
+    out = bench("plot", str(tmp_path / "res"))
+    assert out.returncode == 2 and "expert" in out.stderr and out.stderr.count("\n") == 1
+
+
+def test_plot_of_missing_dir():
+    out = bench("plot", "no/such/results")
+    assert out.returncode == 2 and "no/such/results" in out.stderr
+
+
+def test_help_of_every_command():
+    for args in (
+        ["--help"],
+        ["run", "--help"],
+        ["plot", "--help"],
+        ["list", "--help"],
+        ["experts", "train", "--help"],
+    ):
+        out = bench(*args)
+        assert out.returncode == 0 and "usage: bench" in out.stdout
