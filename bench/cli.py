@@ -33,13 +33,23 @@ def _experts_list(args: argparse.Namespace) -> int:
     if not rows:
         print(f"no experts in {EXPERTS_DIR}")
         return 0
+    if getattr(args, "markdown", False):
+        print("| env | return (mean +- std) | train steps | wall time |")
+        print("|---|---:|---:|---:|")
+        for m in rows:
+            print(
+                f"| {m['env_id']} | {m['return_mean']:.1f} +- {m['return_std']:.1f} "
+                f"| {m['train_steps']:,} | {m['wall_time_s'] / 60:.1f} min |"
+            )
+        return 0
     print(
         f"{'env':36s} {'return (mean +- std)':>22s} {'episodes':>8s} {'train steps':>12s} {'wall':>7s}"
     )
     for m in rows:
         ret = f"{m['return_mean']:.1f} +- {m['return_std']:.1f}"
         print(
-            f"{m['env_id']:36s} {ret:>22s} {m['eval_episodes']:>8d} {m['train_steps']:>12,d} {m['wall_time_s']:>6.0f}s"
+            f"{m['env_id']:36s} {ret:>22s} {m['eval_episodes']:>8d} "
+            f"{m['train_steps']:>12,d} {m['wall_time_s']:>6.0f}s"
         )
     return 0
 
@@ -165,6 +175,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     tr.set_defaults(func=_experts_train)
     ls = esub.add_parser("list", help="show the available experts and their returns")
+    ls.add_argument("--markdown", action="store_true", help="print a markdown table")
     ls.set_defaults(func=_experts_list)
     return parser
 

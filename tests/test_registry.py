@@ -1,0 +1,62 @@
+import re
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from bench import registry
+from bench.runner import run_trial, trial_inputs
+from bench.types import ActionDemos, Demos, TrialSpec
+
+PENDULUM = "InvertedPendulumBulletEnv-v0"
+README = Path(__file__).resolve().parent.parent / "README.md"
+
+
+@pytest.fixture(autouse=True)
+def demo_cache(tmp_path, monkeypatch):
+    monkeypatch.setattr("bench.paths.CACHE_DIR", tmp_path / "cache")
+
+
+def spec(algorithm: str, budget: int = 4096, **hp) -> TrialSpec:
+    return TrialSpec("t", PENDULUM, algorithm, 1, 0, budget, 2, hp)
+
+
+def test_only_gail_is_handed_actions():
+    algos = registry.all_algorithms()
+    assert {"random", "expert", "gaifo", "gail", "survival"} <= set(algos)
+    assert [name for name, a in algos.items() if a.uses_actions] == ["gail"]
+    for name, algo in algos.items():
+        inputs = trial_inputs(spec(name))
+        if algo.inputs == "states":
+            assert type(inputs) is Demos and not hasattr(inputs, "actions"), name
+        elif algo.inputs == "actions":
+            assert type(inputs) is ActionDemos, name
+
+
+def test_unknown_algorithm_and_hyperparameter_are_named():
+    with pytest.raises(registry.RegistryError, match="unknown algorithm 'gaifoo'"):
+        registry.get("gaifoo")
+    with pytest.raises(ValueError, match="no hyperparameter 'disc_lrr'"):
+        registry.get("gaifo").make_config({"disc_lrr": 1.0})
+    with pytest.raises(ValueError, match="reward must be one of"):
+        registry.get("gaifo").make_config({"reward": "D"})
+
+
+def test_readme_plugin_example_runs(tmp_path, monkeypatch):
+    """The README's plugin is real code: register it and train it through the runner."""
+    text = README.read_text()
+    section = text[text.index("## Adding an algorithm") :]
+    code = re.search(r"```python\n(.*?)```", section, re.S).group(1)
+    (tmp_path / "readme_ifo").mkdir()
+    (tmp_path / "readme_ifo" / "__init__.py").write_text(code)
+    monkeypatch.syspath_prepend(str(tmp_path))
+    __import__("readme_ifo")
+    try:
+        result = run_trial(spec("nearest-state"), trial_inputs(spec("nearest-state")))
+        assert result.status == "ok", result.traceback
+        assert 0 < result.env_steps <= 4096 and len(result.returns) == 2
+        assert np.all(np.isfinite(result.returns))
+    finally:
+        registry._ALGORITHMS.pop("nearest-state", None)
+        sys.modules.pop("readme_ifo", None)
