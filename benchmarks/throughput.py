@@ -1,9 +1,11 @@
-"""Env steps per second on one core: raw random stepping vs TRPO training (updates included).
+"""Env steps per second on one core: raw random stepping vs TRPO and GAIfO training.
 
     python benchmarks/throughput.py [--steps 60000] [--envs InvertedPendulumBulletEnv-v0 HopperBulletEnv-v0]
 
-Prints one row per env; `ratio` = TRPO training throughput / raw stepping.
-The simulator is the limit, so everything above it is overhead.
+Prints one row per env. `trpo/raw` = TRPO training throughput (updates
+included) over raw stepping: the simulator is the limit, everything else is
+overhead. `gaifo/trpo` = GAIfO (discriminator updates and rewards included)
+over plain TRPO. GAIfO needs the env's expert (for one demonstration).
 """
 
 from __future__ import annotations
@@ -50,6 +52,34 @@ def trpo_steps_per_s(env_id: str, steps: int, reward_fn=None) -> float:
     return (n1 - n0) / (t1 - t0)
 
 
+def gaifo_steps_per_s(env_id: str, steps: int) -> float:
+    """GAIfO from one demonstration, timed like `trpo_steps_per_s` (same TRPO settings)."""
+    from algorithms.adversarial import AdversarialConfig, train_adversarial
+    from algorithms.gaifo import transitions
+    from bench import demos, paths
+    from bench.registry import Task
+
+    if not paths.has_expert(env_id):
+        return float("nan")
+    obs_dim, act_dim, low, high = envs.spaces(env_id)
+    demo = demos.load_demos(demos.ensure_pool(env_id), env_id, k=1, seed=0)
+    expert = np.concatenate(demo.transitions(), axis=1)
+    timings: list[tuple[int, float]] = []
+    start = time.perf_counter()
+
+    class Clock:
+        def checkpoint(self, env_steps, policy):
+            timings.append((env_steps, time.perf_counter() - start))
+
+        def log(self, env_steps, **scalars):
+            pass
+
+    task = Task(env_id, obs_dim, act_dim, low, high, make_env=lambda s: envs.make(env_id, s))
+    train_adversarial(task, expert, transitions, 2, 0, steps, Clock(), AdversarialConfig())
+    (n0, t0), (n1, t1) = timings[0], timings[-1]
+    return (n1 - n0) / (t1 - t0)
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
@@ -60,11 +90,16 @@ def main() -> None:
     )
     args = parser.parse_args()
     torch.set_num_threads(1)
-    print(f"{'env':32s} {'raw steps/s':>12s} {'TRPO steps/s':>13s} {'ratio':>6s}")
+    header = ("env", "raw steps/s", "TRPO steps/s", "GAIfO steps/s", "trpo/raw", "gaifo/trpo")
+    print(f"{header[0]:32s}" + "".join(f"{h:>15s}" for h in header[1:]))
     for env_id in args.envs:
         raw = raw_steps_per_s(env_id, args.steps)
         trpo = trpo_steps_per_s(env_id, args.steps)
-        print(f"{env_id:32s} {raw:12,.0f} {trpo:13,.0f} {trpo / raw:6.2f}", flush=True)
+        gaifo = gaifo_steps_per_s(env_id, args.steps)
+        print(
+            f"{env_id:32s}{raw:15,.0f}{trpo:15,.0f}{gaifo:15,.0f}{trpo / raw:15.2f}{gaifo / trpo:15.2f}",
+            flush=True,
+        )
 
 
 if __name__ == "__main__":
