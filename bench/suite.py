@@ -70,7 +70,7 @@ class EnvSettings:
 class AlgorithmEntry:
     name: str
     hyperparams: dict[str, Any] = field(default_factory=dict, hash=False)
-    """Overrides of the algorithm's config dataclass, already validated."""
+    """The algorithm's full config: defaults with the suite's overrides applied, validated."""
     uses_demos: bool = True
     """False for algorithms whose inputs are "none" or "expert": run once, with n_demos=0."""
 
@@ -286,10 +286,12 @@ def _algorithms(raw: Any) -> tuple[AlgorithmEntry, ...]:
         except registry.RegistryError as e:
             raise _Invalid(key, _one_line(str(e))) from None
         _check_hyperparams(algo, overrides, f"{key}.{name}")
+        # Specs carry the full resolved config, defaults included: a changed default is a new trial id.
+        resolved = json.loads(json.dumps(dataclasses.asdict(algo.make_config(overrides))))
         if any(e.name == name for e in entries):
             # Records and plots group by name, so two entries would silently merge.
             raise _Invalid(key, f"{name!r} is listed twice; give each algorithm one entry")
-        entries.append(AlgorithmEntry(name, overrides, algo.inputs in ("states", "actions")))
+        entries.append(AlgorithmEntry(name, resolved, algo.inputs in ("states", "actions")))
     return tuple(entries)
 
 

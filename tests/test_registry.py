@@ -60,3 +60,20 @@ def test_readme_plugin_example_runs(tmp_path, monkeypatch):
     finally:
         registry._ALGORITHMS.pop("nearest-state", None)
         sys.modules.pop("readme_ifo", None)
+
+
+def test_trial_id_covers_resolved_defaults(tmp_path):
+    from bench.suite import expand, load_suite
+
+    def ids(algorithms: str) -> set[str]:
+        path = tmp_path / "s.yaml"
+        path.write_text(
+            f"envs: {{{PENDULUM}: {{budget: 4096}}}}\ndemos: [1]\nalgorithms: {algorithms}\nseeds: 1\n"
+        )
+        return {s.trial_id for s in expand(load_suite(path)) if s.algorithm == "gaifo"}
+
+    plain = ids("[random, expert, gaifo]")
+    assert plain == ids("[random, expert, {gaifo: {disc_lr: 0.0003}}]")  # the default, spelled out
+    assert plain != ids("[random, expert, {gaifo: {disc_lr: 0.001}}]")
+    spec = next(s for s in expand(load_suite(tmp_path / "s.yaml")) if s.algorithm == "gaifo")
+    assert spec.hyperparams["grad_penalty"] == 1.0  # defaults are in the hashed spec

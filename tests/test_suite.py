@@ -81,7 +81,7 @@ def test_loads_with_defaults(tmp_path):
     assert [(a.name, a.hyperparams, a.uses_demos) for a in suite.algorithms] == [
         ("random", {}, False),
         ("expert", {}, False),
-        ("ifo", {"lr": 0.01}, True),
+        ("ifo", {"lr": 0.01, "steps": 10, "normalize": True}, True),  # defaults resolved
         ("with-actions", {}, True),
     ]
 
@@ -115,7 +115,7 @@ seeds: 2
     registry.register("ifo-less-entry-is-fine-too", config=NoConfig, inputs="states")(_train)
     suite = load_suite(write(tmp_path, text))
     assert suite.envs[0].budget == 100_000
-    assert suite.algorithms[1].hyperparams == {"lr": 1e-3, "steps": 5}
+    assert suite.algorithms[1].hyperparams == {"lr": 1e-3, "steps": 5, "normalize": True}
     assert suite.algorithms[2].hyperparams == {}
 
 
@@ -146,7 +146,11 @@ def test_expand_counts_order_and_references(tmp_path):
     hopper = [s for s in specs if s.env_id == HOPPER]
     assert {s.budget for s in hopper} == {2000}
     assert all(s.suite == "x" and s.eval_episodes == 10 for s in specs)
-    assert {s.algorithm: s.hyperparams for s in specs}["ifo"] == {"lr": 0.01}
+    assert {s.algorithm: s.hyperparams for s in specs}["ifo"] == {
+        "lr": 0.01,
+        "steps": 10,
+        "normalize": True,
+    }
 
 
 def _set(raw: dict, keys: tuple, value) -> dict:
