@@ -12,6 +12,7 @@ compare with the `survival` control before crediting the imitation.
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Callable
 from dataclasses import dataclass
 
@@ -119,6 +120,7 @@ def train_adversarial(
     cfg: AdversarialConfig,
 ) -> DeterministicPolicy:
     """The shared loop. `features(batch)` -> (T*E, F) policy features, laid out like `expert_features`."""
+    cfg = dataclasses.replace(cfg, device=task.device)  # the runner decides where networks live
     learner = TRPO(task.obs_dim, task.act_dim, cfg, seed)
     device = learner.device
     extra = expert_features.shape[1] - n_obs * task.obs_dim

@@ -3,6 +3,8 @@ positive imitation reward earns for staying alive alone."""
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 
 from bench.registry import Logger, Policy, Task, register
@@ -25,6 +27,9 @@ def train(
             steps, DeterministicPolicy(learner.policy, task.action_low, task.action_high)
         )
 
+    config = dataclasses.replace(
+        config, device=task.device
+    )  # the runner decides where networks live
     learner = trpo_train(
         task.make_env, budget, seed, config, lambda b: np.ones_like(b.rewards), on_update
     )
