@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import time
 import traceback
+import warnings
 from collections.abc import Iterator
 from dataclasses import dataclass, field
 from importlib.metadata import version
@@ -198,7 +199,9 @@ def run_suite(
             ctx = joblib.parallel_config(backend="dask")
         else:
             ctx = joblib.parallel_config(backend=backend, n_jobs=jobs)
-        with ctx:
+        with ctx, warnings.catch_warnings():
+            # loky replaces workers that grew in memory and says so; no trial is lost by it.
+            warnings.filterwarnings("ignore", message="A worker stopped while some jobs were given")
             parallel = joblib.Parallel(
                 n_jobs=jobs, return_as="generator_unordered", pre_dispatch="n_jobs"
             )
