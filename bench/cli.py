@@ -101,6 +101,15 @@ def _plot(args: argparse.Namespace) -> int:
     return 0
 
 
+def _report(args: argparse.Namespace) -> int:
+    from bench import report
+
+    for path in report.write_reports(args.results_dir, args.out, args.reps):
+        print(f"## {path}\n\n{report.tables(path)}")
+        print(f"wrote {path} (figures and aggregates.csv beside it)\n")
+    return 0
+
+
 def _list(args: argparse.Namespace) -> int:
     from bench import registry
 
@@ -157,6 +166,24 @@ def build_parser() -> argparse.ArgumentParser:
         "--out", metavar="FILE", help="figure path (.png; a .pdf is written beside it)"
     )
     plot.set_defaults(func=_plot)
+
+    rep = sub.add_parser(
+        "report",
+        help="aggregate statistics (IQM, CIs, probability of improvement) and a markdown report",
+        description="Find every suite's records under RESULTS_DIR and write report.md with its figures.",
+    )
+    rep.add_argument("results_dir", help="e.g. results/ or results/quick")
+    rep.add_argument(
+        "--out", metavar="DIR", help="report folder (default <suite dir>/report; one per suite)"
+    )
+    rep.add_argument(
+        "--reps",
+        type=int,
+        default=2000,
+        metavar="N",
+        help="bootstrap resamples per interval (default 2000)",
+    )
+    rep.set_defaults(func=_report)
 
     lst = sub.add_parser("list", help="registered algorithms and available experts")
     lst.set_defaults(func=_list)

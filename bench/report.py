@@ -1,0 +1,566 @@
+"""`bench report`: aggregate statistics and a markdown report, from the records alone.
+
+Per demonstration count, the learners' normalized scores are pooled across envs
+and summarized with rliable (mean, median and IQM with 95% stratified-bootstrap
+CIs; probability of improvement of GAIfO over each other learner; performance
+profiles), and their learning curves are drawn as IQM over seeds with a 95% CI
+band. Random and expert are the references (0 and 1), not competitors; learners
+that take no demonstrations (e.g. survival) compete at every count as controls.
+
+Written beside `report.md`: figure2, profile_<n>demos and curves_<n>demos as
+.png and .pdf, and the numbers of the tables as aggregates.csv and improvement.csv.
+Nothing here trains or evaluates: it reads records and writes files.
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+from collections import defaultdict
+from collections.abc import Sequence
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import scipy.stats
+import seaborn as sns
+from matplotlib.figure import Figure
+from matplotlib.lines import Line2D
+from matplotlib.ticker import EngFormatter
+
+from bench import plot, stats, store
+from bench.normalize import EXPERT, RANDOM, normalize, reference_returns
+
+REPORT = "report.md"
+AGGREGATES_CSV = "aggregates.csv"
+IMPROVEMENT_CSV = "improvement.csv"
+TARGET = "gaifo"
+"""The algorithm whose probability of improvement over the others is reported."""
+TAUS = 81
+"""Score thresholds in a performance profile."""
+AGGREGATE_COLUMNS = ["n_demos", "algorithm", "seeds", "envs", "metric", "estimate", "lo", "hi"]
+IMPROVEMENT_COLUMNS = ["n_demos", "algorithm", "other", "estimate", "lo", "hi"]
+CURVE_COLUMNS = ["env_id", "algorithm", "n_demos", "env_steps", "iqm", "lo", "hi", "seeds"]
+MAX_LISTED = 20
+"""Failed trials named one by one in the header; the rest are counted."""
+METRIC_LABELS = {"mean": "mean", "median": "median", "iqm": "IQM"}
+
+
+# ---------------------------------------------------------------- entry points
+
+
+def write_reports(
+    root: str | Path, out_dir: str | Path | None = None, reps: int = 2000
+) -> list[Path]:
+    """One report per suite folder under `root` (store.find_result_dirs); the report.md paths.
+
+    With several suites, `out_dir` (if given) gets one subfolder per suite, named
+    as the suite's folder is under `root`.
+    """
+    root = Path(root)
+    if not root.is_dir():
+        raise FileNotFoundError(f"no results directory {root}")
+    dirs = store.find_result_dirs(root)
+    if not dirs:
+        raise FileNotFoundError(f"no trial records under {root}")
+    if out_dir is None:
+        return [write_report(d, reps=reps) for d in dirs]
+    if len(dirs) == 1:
+        return [write_report(dirs[0], Path(out_dir), reps)]
+    return [write_report(d, Path(out_dir) / d.relative_to(root), reps) for d in dirs]
+
+
+def write_report(results_dir: Path, out_dir: Path | None = None, reps: int = 2000) -> Path:
+    """Write `out_dir`/report.md (default `results_dir`/report) with its figures; return its path.
+
+    `reps` is the number of bootstrap resamples behind every interval.
+    Raises FileNotFoundError when `results_dir` holds no readable trial record,
+    and normalize.NormalizationError when an env lacks its random or expert trials.
+    """
+    results_dir = Path(results_dir)
+    out_dir = results_dir / "report" if out_dir is None else Path(out_dir)
+    trials = store.load(results_dir)
+    if trials.empty:
+        raise FileNotFoundError(f"no trial records in {store.trials_dir(results_dir)}")
+    df = normalize(trials)
+    out_dir.mkdir(parents=True, exist_ok=True)
+
+    learners = plot.algorithm_order(df["algorithm"].unique())
+    if learners:
+        plot.figure2(df, out_dir / "figure2")
+        per_env = (
+            "## Normalized return per env\n\n"
+            "![Normalized return per env against number of demonstrations](figure2.png)\n\n"
+            "Mean ± standard deviation over seeds, as in the figure.\n\n"
+            # A line that starts with "* " would be a list item in markdown.
+            + plot.summary_table(df).replace(plot.ACTIONS_FOOTNOTE, "\\" + plot.ACTIONS_FOOTNOTE)
+        )
+    else:
+        per_env = "No learning algorithm was run: only the random and expert references."
+
+    try:
+        curves: pd.DataFrame | str = load_iqm_curves(results_dir, trials, reps)
+    except ValueError as e:  # several curves per seed and step: records of more than one run
+        curves = str(e)
+    per_count = [_demo_section(df, curves, n, out_dir, reps) for n in demo_counts(df)]
+    aggregates = _concat([aggregate for _, aggregate, _ in per_count], AGGREGATE_COLUMNS)
+    improvements = _concat([improvement for _, _, improvement in per_count], IMPROVEMENT_COLUMNS)
+    aggregates.to_csv(out_dir / AGGREGATES_CSV, index=False)
+    improvements.to_csv(out_dir / IMPROVEMENT_CSV, index=False)
+
+    sections = [
+        _header(df, results_dir),
+        _how_to_read(learners, reps),
+        _at_a_glance(aggregates, improvements),
+        per_env,
+        *(text for text, _, _ in per_count),
+        _references(df),
+    ]
+    path = out_dir / REPORT
+    path.write_text("\n\n".join(s.strip() for s in sections if s) + "\n")
+    return path
+
+
+def tables(report: str | Path) -> str:
+    """The aggregate and probability-of-improvement tables of a written report, as markdown."""
+    folder = Path(report).parent
+    aggregates = pd.read_csv(folder / AGGREGATES_CSV)
+    improvement = pd.read_csv(folder / IMPROVEMENT_CSV)
+    parts = []
+    for n in sorted(set(aggregates["n_demos"]) | set(improvement["n_demos"])):
+        parts.append(f"### {_demos_title(n)}")
+        parts.append(aggregate_table(aggregates[aggregates["n_demos"] == n]))
+        rows = improvement[improvement["n_demos"] == n]
+        if len(rows):
+            parts.append(improvement_table(rows))
+    if not parts:
+        return "No aggregate statistics: no learning algorithm in these records.\n"
+    return "\n\n".join(p.strip() for p in parts) + "\n"
+
+
+# ---------------------------------------------------------------- statistics
+
+
+def demo_counts(df: pd.DataFrame) -> list[int]:
+    """The demonstration counts the learners ran with; [0] when every learner is demonstration-free."""
+    learners = df[~df["algorithm"].isin(stats.REFERENCES)]
+    counts = sorted(int(n) for n in learners["n_demos"].unique() if n > 0)
+    return counts or ([0] if len(learners) else [])
+
+
+def competitors(df: pd.DataFrame, n_demos: int) -> list[str]:
+    """Learners with trials at `n_demos`, plus the demonstration-free ones (controls), in plot order."""
+    learners = df[~df["algorithm"].isin(stats.REFERENCES)]
+    demo_free = learners.groupby("algorithm")["n_demos"].max() == 0
+    here = set(learners.loc[learners["n_demos"] == n_demos, "algorithm"])
+    return plot.algorithm_order(here | set(demo_free[demo_free].index))
+
+
+def load_iqm_curves(results_dir: Path, trials: pd.DataFrame, reps: int = 2000) -> pd.DataFrame:
+    """`iqm_curves` of the learners' recorded curves, normalized with `trials`' references."""
+    curves = store.load_curves(results_dir)
+    curves = curves[~curves["algorithm"].isin(stats.REFERENCES)]
+    return iqm_curves(normalize(curves, reference_returns(trials)), reps=reps)
+
+
+def iqm_curves(curves: pd.DataFrame, reps: int = 2000, seed: int = 0) -> pd.DataFrame:
+    """IQM over seeds of the normalized return at each evaluation point, with a 95% CI.
+
+    `curves`: normalized learning curves (env_id, algorithm, n_demos, seed,
+    env_steps, normalized). Returns one row per env, algorithm, demo count and
+    evaluation point: env_id, algorithm, n_demos, env_steps, iqm, lo, hi, seeds.
+    Seeds evaluated at different steps are interpolated onto the steps of all
+    of them, within the range they share. Every (env, algorithm, demo count,
+    step) is a stratum of rliable's stratified bootstrap, so the band is pointwise.
+    """
+    # rliable wants one array per run count; cells with as many seeds share one, side by side.
+    pooled: dict[int, list[tuple[tuple, pd.DataFrame]]] = defaultdict(list)
+    for key, rows in curves.dropna(subset=["normalized"]).groupby(
+        ["env_id", "algorithm", "n_demos"]
+    ):
+        if rows.duplicated(["seed", "env_steps"]).any():
+            raise ValueError(
+                f"{key[1]} on {key[0]} with {key[2]} demos has several curves per seed;"
+                " filter to one suite first"
+            )
+        table = _on_common_steps(rows.pivot(index="seed", columns="env_steps", values="normalized"))
+        if table.size:
+            pooled[len(table)].append((key, table))
+    out = []
+    for n_seeds, cells in sorted(pooled.items()):
+        matrix = np.concatenate([t.to_numpy(dtype=float) for _, t in cells], axis=1)
+        with stats._seeded(seed):
+            points, intervals = stats.rly.get_interval_estimates(
+                {"cells": matrix}, _iqm_per_column, reps=reps
+            )
+        i = 0
+        for (env_id, algo, n), table in cells:
+            for step in table.columns:
+                lo, hi = intervals["cells"][:, i]
+                out.append((env_id, algo, n, step, points["cells"][i], lo, hi, n_seeds))
+                i += 1
+    return pd.DataFrame(out, columns=CURVE_COLUMNS)
+
+
+def _iqm_per_column(scores: np.ndarray) -> np.ndarray:
+    """rliable's aggregate_iqm (a 25% trimmed mean) of each column of a (runs x cells) array.
+
+    Vectorized over columns: one bootstrap of every cell at once, instead of one per cell.
+    """
+    return scipy.stats.trim_mean(scores, proportiontocut=0.25, axis=0)
+
+
+def _on_common_steps(table: pd.DataFrame) -> pd.DataFrame:
+    """A (seeds x env_steps) table without gaps: interpolated inside, cut to the shared range."""
+    if table.isna().any(axis=None):
+        table = table.T.interpolate(method="index", limit_area="inside").T
+    return table.dropna(axis=1)
+
+
+# ---------------------------------------------------------------- figures
+
+
+def draw_iqm_curves(frame: pd.DataFrame, title: str) -> Figure:
+    """Per env, IQM normalized return against env steps, band the 95% CI (from `iqm_curves`)."""
+    envs = plot.env_order(frame["env_id"].unique())
+    algos = plot.algorithm_order(frame["algorithm"].unique())
+    colors = plot.algorithm_colors(algos)
+    with sns.axes_style("whitegrid"), sns.plotting_context("paper"):
+        fig, axes = plot._panels(len(envs), width=2.35, height=1.9)
+        for ax, env_id in zip(axes, envs, strict=False):
+            for a in algos:
+                rows = frame[(frame["env_id"] == env_id) & (frame["algorithm"] == a)]
+                rows = rows.sort_values("env_steps")
+                ax.plot(rows["env_steps"], rows["iqm"], color=colors[a], lw=1.3)
+                ax.fill_between(
+                    rows["env_steps"], rows["lo"], rows["hi"], color=colors[a], alpha=0.2, lw=0
+                )
+            plot._reference_lines(ax)
+            ax.set_title(plot.env_label(env_id))
+            ax.set_xlim(left=0)
+            ax.xaxis.set_major_formatter(EngFormatter(sep=""))  # 200k, 1M: no offset text
+        fig.supxlabel("Environment steps", fontsize="medium")
+        fig.supylabel("Normalized return (IQM)", fontsize="medium")
+        handles = [Line2D([], [], color=colors[a], label=plot.algorithm_label(a)) for a in algos]
+        plot._legend_and_titles(fig, handles, title, algos)
+    return fig
+
+
+def draw_performance_profile(profile: pd.DataFrame, title: str) -> Figure:
+    """plot.draw_performance_profile with a title, and its legend under the axes, off the curves."""
+    fig = plot.draw_performance_profile(profile)
+    ax = fig.axes[0]
+    handles, labels = ax.get_legend_handles_labels()
+    ax.get_legend().remove()
+    with sns.axes_style("whitegrid"), sns.plotting_context("paper"):  # as the rest of it
+        fig.suptitle(title, fontweight="bold", fontsize="medium")
+        fig.legend(
+            handles,
+            labels,
+            loc="outside lower center",
+            ncol=min(4, len(labels)),
+            frameon=False,
+            handlelength=1.6,
+            columnspacing=1.2,
+        )
+    return fig
+
+
+# ---------------------------------------------------------------- markdown
+
+
+def aggregate_table(aggregates: pd.DataFrame) -> str:
+    """Markdown: a row per algorithm, a column per metric, each `estimate [lo, hi]`.
+
+    `aggregates`: stats.aggregate_scores rows of one demo count, plus seeds and envs columns.
+    """
+    metrics = [m for m in METRIC_LABELS if m in set(aggregates["metric"])]
+    header = ["algorithm", "runs (seeds × envs)"] + [
+        f"{METRIC_LABELS[m]} [95% CI]" for m in metrics
+    ]
+    lines = [_row(header), "|" + "---|" * len(header)]
+    cells = aggregates.set_index(["algorithm", "metric"])
+    for a in _in_order(aggregates["algorithm"]):
+        first = cells.loc[(a, metrics[0])]
+        runs = f"{int(first['seeds'])} × {int(first['envs'])}"
+        values = [_interval(*cells.loc[(a, m), ["estimate", "lo", "hi"]]) for m in metrics]
+        lines.append(_row([plot.algorithm_label(a), runs, *values]))
+    return "\n".join(lines) + "\n"
+
+
+def improvement_table(improvement: pd.DataFrame) -> str:
+    """Markdown: P(target > other) [95% CI], a row per other algorithm."""
+    target = plot.algorithm_label(improvement["algorithm"].iloc[0])
+    header = [f"{target} vs", f"P({target} > other) [95% CI]"]
+    lines = [_row(header), "|---|---|"]
+    rows = improvement.set_index("other")
+    for other in _in_order(improvement["other"]):
+        r = rows.loc[other]
+        lines.append(
+            _row([plot.algorithm_label(other), _interval(r["estimate"], r["lo"], r["hi"])])
+        )
+    return "\n".join(lines) + "\n"
+
+
+def _header(df: pd.DataFrame, results_dir: Path) -> str:
+    suites = ", ".join(sorted(map(str, df["suite"].unique())))
+    envs = plot.env_order(df["env_id"].unique())
+    learners = plot.algorithm_order(df["algorithm"].unique())
+    references = [a for a in (RANDOM, EXPERT) if a in set(df["algorithm"])]
+    ok = df[df["status"] == "ok"]
+    per_cell = ok.groupby(["env_id", "algorithm", "n_demos"]).size()
+    seeds = _range_text(per_cell) if len(per_cell) else "0"
+    failed = df[df["status"] != "ok"]
+    counts = [int(n) for n in sorted(df.loc[df["n_demos"] > 0, "n_demos"].unique())]
+    rows = [
+        ("suite", suites),
+        ("results", f"`{results_dir}`"),
+        ("envs", ", ".join(f"{plot.env_label(e)} (`{e}`)" for e in envs)),
+        ("learners", ", ".join(map(plot.algorithm_label, learners)) or "none"),
+        ("references", ", ".join(map(plot.algorithm_label, references)) or "none"),
+        ("demonstrations", ", ".join(map(str, counts)) or "none"),
+        ("seeds per cell", f"{seeds} (ok trials per env, algorithm and demo count)"),
+        ("trials", f"{len(df)} ({len(failed)} failed)"),
+        ("env steps", f"{int(df['env_steps'].sum()):,} of training, summed over trials"),
+        ("wall time", f"{_duration(df['wall_time'].sum())} summed over trials"),
+    ]
+    lines = [f"# ifo-bench report: {suites}", "", "| | |", "|---|---|"]
+    lines += [_row(r) for r in rows]
+    if len(failed):
+        lines += ["", "Failed trials, left out of every statistic:", ""]
+        lines += [
+            f"- {plot.env_label(r.env_id)}, {plot.algorithm_label(r.algorithm)}, "
+            f"{_demos_title(r.n_demos).lower()}, seed {r.seed}"
+            for r in failed.head(MAX_LISTED).itertuples()
+        ]
+        if len(failed) > MAX_LISTED:
+            lines.append(f"- and {len(failed) - MAX_LISTED} more (status in the records)")
+    return "\n".join(lines)
+
+
+def _how_to_read(learners: Sequence[str], reps: int) -> str:
+    items = [
+        "**Normalized score**: per env, 0 is the mean return of the random policy and 1 that of "
+        "the expert that recorded the demonstrations (raw returns in the last section), so envs "
+        "can be pooled. Scores below 0 or above 1 are possible.",
+        "**Run**: one seed on one env. For each number of demonstrations, the runs of all envs "
+        "are pooled into three aggregates: mean, median and IQM.",
+        "**IQM** (interquartile mean): the mean of the middle 50% of runs. Less thrown by "
+        "outliers than the mean and less noisy than the median: read it first.",
+        "**[lo, hi]**: a 95% confidence interval, from a stratified bootstrap over seeds "
+        f"({reps} resamples). Few seeds make it wide; with one seed it shrinks to a point, "
+        "which means unknown, not certain.",
+        "**Probability of improvement** P(GAIfO > X): the chance that a run of GAIfO scores "
+        "higher than a run of X on the same env, averaged over envs. 0.5 is a tie; an interval "
+        "that excludes 0.5 is a difference the seeds support.",
+        "**Performance profile**: for each score τ, the fraction of runs scoring above τ. A "
+        "curve that lies above another is better at every level.",
+        "**Learning curves**: the IQM over seeds at each evaluation during training, with its "
+        "95% CI as a band.",
+    ]
+    if "survival" in learners:
+        items.append(
+            "**Survival** is a control: it gets no demonstrations and is rewarded +1 per step "
+            "alive, so the same runs appear at every demonstration count. A learner that does "
+            "not beat it has not shown that it learned from the demonstrations."
+        )
+    if any(plot.uses_actions(a) for a in learners):
+        items.append(
+            "**\\*** marks algorithms that see the expert's actions, which imitation from "
+            "observation does not."
+        )
+    return (
+        "## How to read this report\n\n"
+        + "\n".join(f"- {item}" for item in items)
+        + "\n\nStatistics follow Agarwal et al., *Deep Reinforcement Learning at the Edge of "
+        "the Statistical Precipice* (NeurIPS 2021), computed with their library, rliable."
+    )
+
+
+def _at_a_glance(aggregates: pd.DataFrame, improvement: pd.DataFrame) -> str:
+    """IQM of every learner, and GAIfO's probability of improvement, across demo counts."""
+    if aggregates.empty:
+        return ""
+    counts = sorted(aggregates["n_demos"].unique())
+    columns = [f"{n} demo" + ("s" if n != 1 else "") for n in counts]
+    rule = "|" + "---|" * (1 + len(counts))
+    lines = ["## At a glance", "", _row(["IQM [95% CI]", *columns]), rule]
+    iqm = aggregates[aggregates["metric"] == "iqm"].set_index(["algorithm", "n_demos"])
+    for a in _in_order(aggregates["algorithm"]):
+        cells = [
+            _interval(*iqm.loc[(a, n), ["estimate", "lo", "hi"]]) if (a, n) in iqm.index else ""
+            for n in counts
+        ]
+        lines.append(_row([plot.algorithm_label(a), *cells]))
+    if len(improvement):
+        target = plot.algorithm_label(improvement["algorithm"].iloc[0])
+        pi = improvement.set_index(["other", "n_demos"])
+        lines += ["", _row([f"P({target} > other) [95% CI]", *columns]), rule]
+        for other in _in_order(improvement["other"]):
+            cells = [
+                _interval(*pi.loc[(other, n), ["estimate", "lo", "hi"]])
+                if (other, n) in pi.index
+                else ""
+                for n in counts
+            ]
+            lines.append(_row([f"vs {plot.algorithm_label(other)}", *cells]))
+    return "\n".join(lines)
+
+
+def _references(df: pd.DataFrame) -> str:
+    refs = df[(df["status"] == "ok") & df["algorithm"].isin([RANDOM, EXPERT])]
+    summary = refs.groupby(["env_id", "algorithm"])["return"].agg(["mean", "std", "size"])
+    lines = [
+        "## Reference returns",
+        "",
+        "Raw undiscounted return of the references, mean ± standard deviation over seeds "
+        "(each seed's return is itself a mean over evaluation episodes): "
+        "the 0 and 1 of every normalized score.",
+        "",
+        "| env | random | expert |",
+        "|---|---|---|",
+    ]
+    for env_id in plot.env_order(df["env_id"].unique()):
+        cells = []
+        for a in (RANDOM, EXPERT):
+            if (env_id, a) not in summary.index:
+                cells.append("")
+                continue
+            r = summary.loc[(env_id, a)]
+            seeds = f"{int(r['size'])} seed" + ("s" if r["size"] != 1 else "")
+            spread = "" if pd.isna(r["std"]) else f" ± {r['std']:.1f}"
+            cells.append(f"{r['mean']:.1f}{spread} ({seeds})")
+        lines.append(_row([plot.env_label(env_id), *cells]))
+    return "\n".join(lines)
+
+
+def _demo_section(
+    df: pd.DataFrame, curves: pd.DataFrame | str, n: int, out_dir: Path, reps: int
+) -> tuple[str, pd.DataFrame, pd.DataFrame]:
+    """Markdown for one demo count, and its aggregate and improvement rows."""
+    title = _demos_title(n)
+    parts = [f"## {title}"]
+    names = competitors(df, n)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        try:
+            scores = stats.score_dict(df, n, algorithms=names)
+        except ValueError as e:
+            parts.append(f"No aggregate statistics: {e}.")
+            scores = {}
+    notes = [str(w.message) for w in caught if issubclass(w.category, UserWarning)]
+    if notes:
+        parts.append("Left out of the statistics:\n" + "\n".join(f"- {note}" for note in notes))
+    aggregate = pd.DataFrame()
+    improvement = pd.DataFrame()
+    if scores:
+        aggregate = stats.aggregate_scores(scores, reps=reps)
+        aggregate = aggregate.assign(
+            seeds=[scores[a].shape[0] for a in aggregate["algorithm"]],
+            envs=[scores[a].shape[1] for a in aggregate["algorithm"]],
+        )
+        envs = next(iter(scores.values())).shape[1]  # the same for all: score_dict's contract
+        pooled = f"Runs of the {envs} envs pooled" if envs > 1 else "Runs of the one env"
+        parts += [
+            "### Aggregate normalized score",
+            f"{pooled}; brackets are 95% bootstrap CIs.",
+            aggregate_table(aggregate),
+        ]
+        parts.append("### Probability of improvement")
+        if TARGET not in scores:
+            parts.append(
+                f"{plot.algorithm_label(TARGET)} has no scores with {title.lower()}: "
+                "no probability of improvement to report."
+            )
+        elif len(scores) == 1:
+            parts.append(
+                f"{plot.algorithm_label(TARGET)} is the only learner here: nothing to compare."
+            )
+        else:
+            improvement = stats.probability_of_improvement(scores, TARGET, reps=reps)
+            parts.append(improvement_table(improvement))
+
+        everything = np.concatenate([s.ravel() for s in scores.values()])
+        taus = np.linspace(min(0.0, everything.min()), max(1.0, everything.max()), TAUS)
+        profile = stats.performance_profile(scores, taus, reps=reps)
+        name = f"profile_{n}demos"
+        plot.save(
+            draw_performance_profile(profile, f"Performance profile, {title.lower()}"),
+            out_dir / name,
+        )
+        parts += [
+            "### Performance profile",
+            "Fraction of runs (seeds × envs) scoring above each normalized score τ; band: 95% CI.",
+            f"![Performance profile, {title.lower()}]({name}.png)",
+        ]
+
+    parts += ["### Learning curves", _curves_section(curves, names, n, title, out_dir)]
+    return (
+        "\n\n".join(p.strip() for p in parts),
+        aggregate.assign(n_demos=n) if len(aggregate) else aggregate,
+        improvement.assign(n_demos=n) if len(improvement) else improvement,
+    )
+
+
+def _curves_section(
+    curves: pd.DataFrame | str, names: list[str], n: int, title: str, out_dir: Path
+) -> str:
+    if isinstance(curves, str):
+        return f"No learning curves: {curves}."
+    demo_free = curves.groupby("algorithm")["n_demos"].transform("max") == 0
+    frame = curves[curves["algorithm"].isin(names) & ((curves["n_demos"] == n) | demo_free)]
+    if frame.empty:
+        return f"No learning curves were recorded with {title.lower()}."
+    text = ""
+    missing = [a for a in names if a not in set(frame["algorithm"])]
+    if missing:
+        text = (
+            f"No learning curve recorded for {', '.join(map(plot.algorithm_label, missing))}.\n\n"
+        )
+    name = f"curves_{n}demos"
+    plot.save(draw_iqm_curves(frame, f"Learning curves, {title.lower()}"), out_dir / name)
+    return (
+        text + "Normalized return at each evaluation during training: IQM over seeds, "
+        "band: 95% CI.\n\n" + f"![Learning curves, {title.lower()}]({name}.png)"
+    )
+
+
+# ---------------------------------------------------------------- helpers
+
+
+def _in_order(names: pd.Series) -> list[str]:
+    names = list(dict.fromkeys(names))
+    ordered = plot.algorithm_order(names)
+    return ordered + [a for a in names if a not in ordered]
+
+
+def _concat(frames: list[pd.DataFrame], columns: list[str]) -> pd.DataFrame:
+    frames = [f for f in frames if len(f)]
+    return (
+        pd.concat(frames, ignore_index=True)[columns] if frames else pd.DataFrame(columns=columns)
+    )
+
+
+def _interval(estimate: float, lo: float, hi: float) -> str:
+    return f"{estimate:.2f} [{lo:.2f}, {hi:.2f}]"
+
+
+def _row(cells: Sequence[object]) -> str:
+    return "| " + " | ".join(map(str, cells)) + " |"
+
+
+def _demos_title(n: int) -> str:
+    return "No demonstrations" if n == 0 else f"{n} demonstration" + ("s" if n != 1 else "")
+
+
+def _range_text(values: pd.Series) -> str:
+    lo, hi = int(values.min()), int(values.max())
+    return str(lo) if lo == hi else f"{lo}–{hi}"
+
+
+def _duration(seconds: float) -> str:
+    if not math.isfinite(seconds) or seconds < 120:
+        return f"{seconds:.0f} s"
+    if seconds < 2 * 3600:
+        return f"{seconds / 60:.0f} min"
+    return f"{seconds / 3600:.1f} h"

@@ -1,0 +1,214 @@
+"""`bench report` on synthetic records: statistics, markdown, figures, CLI."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from bench import cli, report, stats, store
+from bench.types import CurvePoint, TrialResult, TrialSpec
+
+ENVS = {"InvertedPendulumBulletEnv-v0": (20.0, 1000.0), "HopperBulletEnv-v0": (-5.0, 2500.0)}
+"""env -> (random return, expert return)."""
+DEMOS = [1, 5]
+SKILL = {"gaifo": 0.6, "gail": 0.4, "survival": 0.2}
+"""Normalized score each learner converges to (plus a little per seed)."""
+BUDGET = 1000
+REPS = 100
+
+
+def trial(env_id: str, algorithm: str, n_demos: int, seed: int, **changes) -> TrialResult:
+    random, expert = ENVS[env_id]
+    spec = TrialSpec("synthetic", env_id, algorithm, n_demos, seed, BUDGET, eval_episodes=3)
+    if algorithm in ("random", "expert"):
+        level = (0.0 if algorithm == "random" else 1.0) + 0.01 * (-1) ** seed  # mean 0 or 1
+        curve = []
+    else:
+        level = SKILL[algorithm] + 0.02 * n_demos + 0.05 * seed
+        curve = [
+            CurvePoint(step, random + (expert - random) * level * step / BUDGET)
+            for step in range(0, BUDGET + 1, BUDGET // 4)
+        ]
+    ret = random + (expert - random) * level
+    fields = dict(
+        spec=spec,
+        status="ok",
+        returns=[ret - 1.0, ret, ret + 1.0],
+        curve=curve,
+        env_steps=BUDGET,
+        wall_time=12.5,
+        versions={"ifo-bench": "test"},
+    )
+    return TrialResult(**(fields | changes))
+
+
+def write_suite(
+    results_dir: Path, seeds=range(4), algorithms=("gaifo", "gail"), envs=ENVS, demos=DEMOS
+) -> Path:
+    for env_id in envs:
+        for seed in seeds:
+            for algorithm in ("random", "expert", "survival"):
+                store.write(results_dir, trial(env_id, algorithm, 0, seed))
+            for algorithm in algorithms:
+                for n in demos:
+                    store.write(results_dir, trial(env_id, algorithm, n, seed))
+    return results_dir
+
+
+PENDULUM = next(iter(ENVS))
+
+
+@pytest.fixture(scope="module")
+def written(tmp_path_factory) -> Path:
+    """2 envs x 2 demo counts x 5 algorithms x 4 seeds, and a failed fifth seed of gaifo."""
+    results = write_suite(tmp_path_factory.mktemp("report") / "synthetic")
+    failed = trial(PENDULUM, "gaifo", 5, 4, status="failed", returns=[], curve=[])
+    store.write(results, failed)
+    return report.write_report(results, reps=REPS)
+
+
+def test_report_has_every_table_and_figure(written):
+    assert written == written.parent / "report.md" and written.parent.name == "report"
+    text = written.read_text()
+    for needle in (
+        "# ifo-bench report: synthetic",
+        "| seeds per cell | 4 ",
+        "## How to read this report",
+        "## At a glance",
+        "## Reference returns",
+        "| algorithm | runs (seeds × envs) | mean [95% CI] | median [95% CI] | IQM [95% CI] |",
+        "### Probability of improvement",
+        "| GAIfO vs | P(GAIfO > other) [95% CI] |",
+        "## 1 demonstration",
+        "## 5 demonstrations",
+        "![Performance profile, 5 demonstrations](profile_5demos.png)",
+        "![Learning curves, 1 demonstration](curves_1demos.png)",
+        "![Normalized return per env against number of demonstrations](figure2.png)",
+        "\\* has access to expert actions",  # escaped: not a list item
+    ):
+        assert needle in text, needle
+    for label in ("GAIfO", "GAIL*", "Survival", "Random", "Expert"):
+        assert f"| {label} |" in text, label
+    for name in ("figure2", "profile_1demos", "profile_5demos", "curves_1demos", "curves_5demos"):
+        assert (written.parent / f"{name}.png").read_bytes()[:4] == b"\x89PNG", name
+        assert f"({name}.png)" in text
+    assert "nan" not in text.lower()
+
+
+def test_failed_trials_are_named_and_left_out(written):
+    text = written.read_text()
+    assert "| trials | 57 (1 failed) |" in text
+    assert "- InvertedPendulum, GAIfO, 5 demonstrations, seed 4" in text
+    assert "- gaifo: dropped seed(s) [4]" in text
+
+
+def test_report_numbers(written):
+    aggregates = pd.read_csv(written.parent / "aggregates.csv")
+    assert set(aggregates["algorithm"]) == {"gaifo", "gail", "survival"}  # references left out
+    assert sorted(aggregates["n_demos"].unique()) == DEMOS
+    # gaifo with 5 demos, seeds 0-3 on both envs: 0.7 + 0.05 * seed; the middle half is seeds 1, 2
+    iqm = aggregates.set_index(["n_demos", "algorithm", "metric"]).loc[(5, "gaifo", "iqm")]
+    assert iqm["estimate"] == pytest.approx(0.7 + 0.05 * 1.5)
+    assert iqm["lo"] <= iqm["estimate"] <= iqm["hi"]
+    improvement = pd.read_csv(written.parent / "improvement.csv")
+    assert set(improvement["other"]) == {"gail", "survival"}
+    assert (improvement["estimate"] > 0.5).all()
+    # the raw references, mean ± std over the 4 seeds
+    assert "| Hopper | -5.0 ± 28.9 (4 seeds) | 2500.0 ± 28.9 (4 seeds) |" in written.read_text()
+
+
+def test_iqm_curves_are_rliable_iqm_per_step():
+    rows = [
+        ("E", "gaifo", 1, seed, step, value)
+        for seed, values in enumerate([[0, 1], [2, 3], [4, 5], [6, 7]])
+        for step, value in zip((0, 100), values, strict=True)
+    ]
+    curves = pd.DataFrame(
+        rows, columns=["env_id", "algorithm", "n_demos", "seed", "env_steps", "normalized"]
+    )
+    frame = report.iqm_curves(curves, reps=REPS)
+    assert frame["env_steps"].tolist() == [0, 100]
+    assert frame["iqm"].tolist() == [
+        stats.metrics.aggregate_iqm(np.array([0.0, 2, 4, 6])),
+        stats.metrics.aggregate_iqm(np.array([1.0, 3, 5, 7])),
+    ]
+    assert frame["iqm"].tolist() == [3.0, 4.0]
+    assert (frame["lo"] <= frame["iqm"]).all() and (frame["iqm"] <= frame["hi"]).all()
+    assert (frame["seeds"] == 4).all()
+
+
+def test_iqm_curves_put_seeds_on_shared_steps():
+    rows = [("E", "a", 1, 0, s, s / 100) for s in (0, 50, 100)]
+    rows += [("E", "a", 1, 1, s, s / 100) for s in (10, 60, 90)]
+    curves = pd.DataFrame(
+        rows, columns=["env_id", "algorithm", "n_demos", "seed", "env_steps", "normalized"]
+    )
+    frame = report.iqm_curves(curves, reps=20)
+    assert frame["env_steps"].tolist() == [10, 50, 60, 90]  # inside both seeds' range
+    np.testing.assert_allclose(frame["iqm"], [0.1, 0.5, 0.6, 0.9])
+
+
+def test_one_env_one_seed_no_gaifo_no_curves(tmp_path):
+    results = tmp_path / "small"
+    env_id = next(iter(ENVS))
+    for algorithm in ("random", "expert", "survival"):
+        store.write(results, trial(env_id, algorithm, 0, 0))
+    store.write(results, trial(env_id, "gail", 5, 0, curve=[]))
+    text = report.write_report(results, tmp_path / "out", reps=20).read_text()
+    assert "GAIfO has no scores with 5 demonstrations" in text
+    assert "0.49 [0.49, 0.49]" in text  # gail: one seed, a point interval
+    assert "| GAIL* | 1 × 1 |" in text
+    assert "No learning curve recorded for GAIL*" in text
+    assert (tmp_path / "out" / "curves_5demos.png").is_file()  # survival's
+    assert not (tmp_path / "out" / "profile_1demos.png").exists()
+
+
+@pytest.fixture()
+def two_suites(tmp_path) -> Path:
+    """Suite a has a learner; suite b only the references, which still makes a report."""
+    write_suite(tmp_path / "results" / "a", range(2), ("gaifo",), [PENDULUM], demos=[5])
+    for seed in range(2):
+        for algorithm in ("random", "expert"):
+            store.write(tmp_path / "results" / "b", trial(PENDULUM, algorithm, 0, seed))
+    return tmp_path / "results"
+
+
+def test_cli_writes_a_report_per_suite(two_suites, tmp_path, capsys):
+    out = tmp_path / "out"
+    assert cli.main(["report", str(two_suites), "--out", str(out), "--reps", "50"]) == 0
+    stdout = capsys.readouterr().out
+    for suite in ("a", "b"):
+        assert f"wrote {out / suite / 'report.md'}" in stdout
+        assert not (two_suites / suite / "report").exists()
+    assert stdout.count("IQM [95% CI]") == 1 and "| GAIfO | 2 × 1 |" in stdout
+    assert "| Survival | 2 × 1 | 0.23 [" in stdout
+    assert "P(GAIfO > other) [95% CI]" in stdout
+    assert "no learning algorithm" in stdout  # suite b
+    only_references = (out / "b" / "report.md").read_text()
+    assert "No learning algorithm was run" in only_references
+    assert (
+        "| InvertedPendulum | 20.0 ± 13.9 (2 seeds) | 1000.0 ± 13.9 (2 seeds) |" in only_references
+    )
+
+
+def test_python_m_bench_cli_report(two_suites):
+    out = subprocess.run(
+        [sys.executable, "-m", "bench.cli", "report", str(two_suites / "b")],
+        capture_output=True,
+        text=True,
+    )
+    assert out.returncode == 0, out.stderr
+    assert (two_suites / "b" / "report" / "report.md").is_file()
+
+
+@pytest.mark.parametrize("folder", ["empty", "empty/trials", "nothing"])
+def test_cli_without_trials_is_one_line_exit_2(folder, tmp_path, capsys):
+    (tmp_path / "empty" / "trials").mkdir(parents=True)
+    assert cli.main(["report", str(tmp_path / folder)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and err.startswith("bench: error: ") and str(tmp_path) in err
