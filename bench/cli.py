@@ -85,12 +85,7 @@ def _run(args: argparse.Namespace) -> int:
 def _plot(args: argparse.Namespace) -> int:
     from bench import normalize, plot, store
 
-    root = Path(args.results_dir)
-    if not root.is_dir():
-        raise FileNotFoundError(f"no results directory {root}")
-    dirs = store.find_result_dirs(root)
-    if not dirs:
-        raise FileNotFoundError(f"no trial records under {root}")
+    dirs = store.suite_dirs(args.results_dir)
     for d in dirs:
         df = normalize.normalize(store.load(d))
         out = Path(args.out) if args.out and len(dirs) == 1 else d / "figure2.png"

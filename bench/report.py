@@ -58,11 +58,7 @@ def write_reports(
     as the suite's folder is under `root`.
     """
     root = Path(root)
-    if not root.is_dir():
-        raise FileNotFoundError(f"no results directory {root}")
-    dirs = store.find_result_dirs(root)
-    if not dirs:
-        raise FileNotFoundError(f"no trial records under {root}")
+    dirs = store.suite_dirs(root)
     if out_dir is None:
         return [write_report(d, reps=reps) for d in dirs]
     if len(dirs) == 1:

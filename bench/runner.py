@@ -93,6 +93,20 @@ def trial_inputs(spec: TrialSpec) -> Any:
     return demos.load_action_demos(pool, spec.env_id, spec.n_demos, spec.seed)
 
 
+def make_task(spec: TrialSpec, tally: list[int], device: str = "cpu") -> registry.Task:
+    """The trial's Task: its envs count every step into `tally[0]` and stop past the budget."""
+    obs_dim, act_dim, low, high = envs.spaces(spec.env_id)
+    return registry.Task(
+        spec.env_id,
+        obs_dim,
+        act_dim,
+        low,
+        high,
+        make_env=lambda s: StepCounter(envs.make(spec.env_id, s), tally, spec.budget),
+        device=device,
+    )
+
+
 def run_trial(spec: TrialSpec, inputs: Any, device: str = "cpu") -> TrialResult:
     """Train `spec.algorithm` and evaluate it; never raises (a failure is a failed record)."""
     torch.set_num_threads(1)  # joblib workers share the cores: one thread each
@@ -104,19 +118,10 @@ def run_trial(spec: TrialSpec, inputs: Any, device: str = "cpu") -> TrialResult:
     try:
         torch.manual_seed(spec.seed)
         algo = registry.get(spec.algorithm)
-        obs_dim, act_dim, low, high = envs.spaces(spec.env_id)
         eval_envs += [
             envs.make(spec.env_id, eval_seed + i) for i in range(min(10, spec.eval_episodes))
         ]
-        task = registry.Task(
-            spec.env_id,
-            obs_dim,
-            act_dim,
-            low,
-            high,
-            make_env=lambda s: StepCounter(envs.make(spec.env_id, s), tally, spec.budget),
-            device=device,
-        )
+        task = make_task(spec, tally, device)
         config = algo.make_config(spec.hyperparams)
         policy = algo.train(task, inputs, spec.budget, spec.seed, logger, config)
         returns = evaluate(policy, eval_envs, spec.eval_episodes, eval_seed)

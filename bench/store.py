@@ -127,6 +127,17 @@ def load_logs(results_dir: str | Path) -> pd.DataFrame:
     return _frame(rows, LOG_COLUMNS, ["env_id", "algorithm", "n_demos", "seed", "key", "index"])
 
 
+def suite_dirs(root: str | Path) -> list[Path]:
+    """`find_result_dirs(root)`, or FileNotFoundError (one line) when there is nothing to read."""
+    root = Path(root)
+    if not root.is_dir():
+        raise FileNotFoundError(f"no results directory {root}")
+    dirs = find_result_dirs(root)
+    if not dirs:
+        raise FileNotFoundError(f"no trial records under {root}")
+    return dirs
+
+
 def find_result_dirs(root: str | Path) -> list[Path]:
     """Every folder under `root` (itself included) that holds a trials/ folder; experts/ skipped."""
     if Path(root).name == "experts":

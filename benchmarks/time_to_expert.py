@@ -23,7 +23,7 @@ import torch
 
 from bench import envs, experts, registry
 from bench.rl.rollout import evaluate
-from bench.runner import StepCounter, trial_inputs
+from bench.runner import make_task, trial_inputs
 from bench.types import TrialSpec
 
 
@@ -56,16 +56,7 @@ class ThresholdLogger:
 def run(spec: TrialSpec, lo: float, hi: float, threshold: float, every: int) -> tuple:
     torch.set_num_threads(1)
     algo = registry.get(spec.algorithm)
-    obs_dim, act_dim, low, high = envs.spaces(spec.env_id)
-    tally = [0]
-    task = registry.Task(
-        spec.env_id,
-        obs_dim,
-        act_dim,
-        low,
-        high,
-        make_env=lambda s: StepCounter(envs.make(spec.env_id, s), tally, spec.budget),
-    )
+    task = make_task(spec, tally=[0])
     logger = ThresholdLogger(spec.env_id, lo, hi, threshold, every)
     try:
         algo.train(
