@@ -48,8 +48,10 @@ class AdversarialConfig(TRPOConfig):
     """Discriminator minibatch steps per policy update."""
     disc_minibatch: int = 256
     """Policy samples (and as many expert samples) per discriminator step."""
-    grad_penalty: float = 1.0
+    grad_penalty: float = 10.0
     """Weight of a gradient penalty on expert/policy interpolates (smooths D); 0 disables it."""
+    gp_target: float = 0.0
+    """Gradient norm the penalty pulls towards: 0 (zero-centred) or 1 (WGAN-GP style)."""
     reward: str = "-log(1-D)"
     """Policy reward as a function of D = P(expert): "-log(1-D)", "log D" or "log D - log(1-D)"."""
 
@@ -72,10 +74,14 @@ class Discriminator(nn.Module):
         obs_dim = norm.mean.numel()
         self.net = mlp([n_obs * obs_dim + extra_dim, *hidden, 1])
 
-    def forward(self, x: torch.Tensor) -> torch.Tensor:
+    def normalize(self, x: torch.Tensor) -> torch.Tensor:
+        """Observation blocks scaled by the policy's statistics; extras (actions) as they are."""
         d = self.norm.mean.numel()
         parts = [self.norm(x[:, i * d : (i + 1) * d]) for i in range(self.n_obs)]
-        return self.net(torch.cat([*parts, x[:, self.n_obs * d :]], dim=1)).squeeze(-1)
+        return torch.cat([*parts, x[:, self.n_obs * d :]], dim=1)
+
+    def forward(self, x: torch.Tensor) -> torch.Tensor:
+        return self.net(self.normalize(x)).squeeze(-1)
 
 
 def discriminator_step(
@@ -88,22 +94,30 @@ def discriminator_step(
 ) -> dict[str, float]:
     """`disc_steps` Adam steps of binary cross-entropy, expert labelled 1; returns the last losses."""
     for _ in range(cfg.disc_steps):
-        p = policy_x[torch.randint(len(policy_x), (cfg.disc_minibatch,), generator=gen)]
-        e = expert_x[torch.randint(len(expert_x), (cfg.disc_minibatch,), generator=gen)]
-        logit_p, logit_e = disc(p), disc(e)
-        loss = F.binary_cross_entropy_with_logits(
+        p = disc.normalize(
+            policy_x[torch.randint(len(policy_x), (cfg.disc_minibatch,), generator=gen)]
+        )
+        e = disc.normalize(
+            expert_x[torch.randint(len(expert_x), (cfg.disc_minibatch,), generator=gen)]
+        )
+        logit_p, logit_e = disc.net(p).squeeze(-1), disc.net(e).squeeze(-1)
+        bce = F.binary_cross_entropy_with_logits(
             logit_p, torch.zeros_like(logit_p)
         ) + F.binary_cross_entropy_with_logits(logit_e, torch.ones_like(logit_e))
+        penalty = torch.zeros(())
         if cfg.grad_penalty > 0:
+            # On normalized inputs: raw PyBullet features with tiny variance would make the
+            # gradient w.r.t. raw inputs huge and the penalty would swamp the classifier.
             alpha = torch.rand(len(p), 1, generator=gen)
-            mix = (alpha * e + (1 - alpha) * p).requires_grad_(True)
-            grad = torch.autograd.grad(disc(mix).sum(), mix, create_graph=True)[0]
-            loss = loss + cfg.grad_penalty * (grad.norm(dim=1) - 1).square().mean()
+            mix = (alpha * e + (1 - alpha) * p).detach().requires_grad_(True)
+            grad = torch.autograd.grad(disc.net(mix).sum(), mix, create_graph=True)[0]
+            penalty = (grad.norm(dim=1) - cfg.gp_target).square().mean()
         opt.zero_grad()
-        loss.backward()
+        (bce + cfg.grad_penalty * penalty).backward()
         opt.step()
     return {
-        "disc_loss": loss.item(),
+        "disc_loss": bce.item(),
+        "disc_grad_penalty": penalty.item(),
         "disc_acc_policy": (logit_p < 0).float().mean().item(),
         "disc_acc_expert": (logit_e > 0).float().mean().item(),
     }

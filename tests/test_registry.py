@@ -76,4 +76,4 @@ def test_trial_id_covers_resolved_defaults(tmp_path):
     assert plain == ids("[random, expert, {gaifo: {disc_lr: 0.0003}}]")  # the default, spelled out
     assert plain != ids("[random, expert, {gaifo: {disc_lr: 0.001}}]")
     spec = next(s for s in expand(load_suite(tmp_path / "s.yaml")) if s.algorithm == "gaifo")
-    assert spec.hyperparams["grad_penalty"] == 1.0  # defaults are in the hashed spec
+    assert spec.hyperparams["grad_penalty"] == 10.0  # defaults are in the hashed spec
