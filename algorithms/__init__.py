@@ -1,3 +1,3 @@
 """Built-in algorithms. Importing this package registers each of them."""
 
-from algorithms import expert, gaifo, gail, random, survival  # noqa: F401
+from algorithms import bco, expert, gaifo, gail, random, survival, tcn  # noqa: F401

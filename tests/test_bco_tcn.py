@@ -1,0 +1,111 @@
+"""BCO and TCN for real: tiny-budget trials through the runner, the inverse model, TCN's sampling."""
+
+import dataclasses
+
+import numpy as np
+import pytest
+import torch
+
+from algorithms import bco, tcn
+from bench import envs, registry
+from bench.runner import run_trial, trial_inputs
+from bench.types import Demos, TrialSpec
+
+PENDULUM = "InvertedPendulumBulletEnv-v0"
+
+
+@pytest.fixture(scope="module")
+def cache(tmp_path_factory):
+    """One demo pool (recorded with the shipped expert) for the whole module, in a temp folder."""
+    mp = pytest.MonkeyPatch()
+    mp.setattr("bench.paths.CACHE_DIR", tmp_path_factory.mktemp("cache"))
+    yield
+    mp.undo()
+
+
+def run_state_only(name: str, budget: int, monkeypatch, **hp):
+    """run_trial with `name`'s train wrapped to check it is handed state-only Demos."""
+    algo = registry.get(name)
+    handed = []
+
+    def checked(task, demos, *args):
+        handed.append(type(demos))
+        return algo.train(task, demos, *args)
+
+    monkeypatch.setitem(registry._ALGORITHMS, name, dataclasses.replace(algo, train=checked))
+    spec = TrialSpec("t", PENDULUM, name, 1, 0, budget, 2, hp)
+    inputs = trial_inputs(spec)
+    assert type(inputs) is Demos and not hasattr(inputs, "actions")
+    result = run_trial(spec, inputs)
+    assert result.status == "ok", result.traceback
+    assert handed == [Demos]
+    assert len(result.returns) == 2 and np.all(np.isfinite(result.returns))
+    return result
+
+
+def test_bco_trains_through_the_runner_within_its_budget(cache, monkeypatch):
+    # 2000 random steps, then chunks of 1000 policy steps; the last chunk is cut to 500.
+    hp = dict(pre_demo_steps=2000, alpha=0.5, inverse_steps=300, bc_steps=200)
+    result = run_state_only("bco", 4500, monkeypatch, **hp)
+    assert result.env_steps == 4500  # every random and policy step counted, none past the budget
+    assert result.logs["env_steps"] == [2000, 3000, 4000, 4500]
+    assert all(r2 > 0.5 for r2 in result.logs["inverse_val_r2"])
+    assert len(result.curve) >= 2
+
+    plain = run_state_only("bco", 4500, monkeypatch, **{**hp, "alpha": 0.0})  # BCO(0)
+    assert plain.env_steps == 2000 and plain.logs["env_steps"] == [2000]
+
+
+def test_tcn_trains_through_the_runner_within_its_budget(cache, monkeypatch):
+    result = run_state_only("tcn", 5000, monkeypatch, embed_steps=100, n_envs=4)
+    assert result.env_steps == 4096  # whole TRPO batches of 4 x 256 only
+    assert {"triplet_loss", "embed_dist2", "kl"} <= set(result.logs)
+    assert len(result.curve) >= 2
+
+
+def test_inverse_model_recovers_random_actions():
+    """Fit on 8k random pendulum transitions, judge on 2k fresh ones against the true actions."""
+    cfg = bco.BCOConfig(inverse_steps=1500)
+    rng = np.random.default_rng(0)
+
+    def uniform(obs):
+        return rng.uniform(-1, 1, size=(len(obs), 1))
+
+    def transitions(n: int, seed: int):
+        rollouts = bco.Rollouts([envs.make(PENDULUM, seed + i) for i in range(4)], seed)
+        try:
+            return tuple(torch.from_numpy(x) for x in rollouts.collect(uniform, n))
+        finally:
+            rollouts.close()
+
+    s, a, s_next = train = transitions(8000, 0)
+    model = bco.InverseModel(s.shape[1], a.shape[1], cfg.inverse_hidden)
+    model.update_norms(s.numpy(), s_next.numpy())
+    torch.manual_seed(0)
+    opt = torch.optim.Adam(model.net.parameters(), lr=cfg.inverse_lr)
+    bco.fit_inverse(model, opt, train, cfg, torch.Generator().manual_seed(0))
+    error = bco.inverse_error(model, transitions(2000, 50))
+    assert error["inverse_val_r2"] > 0.95, error  # actions have variance 1/3; MSE < 0.017
+
+
+def test_triplets_respect_window_and_margin():
+    cfg = tcn.TCNConfig(pos_window=3, neg_margin=15)
+    lengths = np.array([200, 20, 10])  # the last has no step 15 away from another: never drawn
+    ep, a, p, n = tcn.sample_triplets(lengths, 20_000, cfg, np.random.default_rng(0))
+    assert set(ep) == {0, 1}
+    gap_p, gap_n = np.abs(p - a), np.abs(n - a)
+    assert gap_p.min() == 1 and gap_p.max() == 3 and gap_n.min() >= 15
+    assert (n >= 0).all() and (n < lengths[ep]).all() and (p < lengths[ep]).all()
+
+
+def test_demo_targets_hold_the_last_state():
+    cfg = tcn.TCNConfig(embed_dim=4)
+    embed = tcn.Embedding(2, cfg)
+    long, short = np.random.default_rng(0).normal(size=(2, 6, 2)).astype(np.float32)
+    short = short[:3]
+    targets = tcn.demo_targets(embed, Demos(PENDULUM, (long, short)))
+    with torch.no_grad():
+        e_long, e_short = embed(torch.from_numpy(long)), embed(torch.from_numpy(short))
+    assert targets.shape == (6, 4)
+    torch.testing.assert_close(targets[1], (e_long[1] + e_short[1]) / 2)
+    torch.testing.assert_close(targets[5], (e_long[5] + e_short[2]) / 2)
