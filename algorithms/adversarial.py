@@ -12,7 +12,6 @@ compare with the `survival` control before crediting the imitation.
 
 from __future__ import annotations
 
-import dataclasses
 from collections.abc import Callable
 from dataclasses import dataclass
 
@@ -21,6 +20,7 @@ import torch
 import torch.nn.functional as F
 from torch import nn
 
+from algorithms.common import deterministic, on_task_device, report_each_update
 from bench.registry import Logger, Task
 from bench.rl.networks import DeterministicPolicy, RunningNorm, mlp
 from bench.rl.rollout import Batch
@@ -134,7 +134,7 @@ def train_adversarial(
     cfg: AdversarialConfig,
 ) -> DeterministicPolicy:
     """The shared loop. `features(batch)` -> (T*E, F) policy features, laid out like `expert_features`."""
-    cfg = dataclasses.replace(cfg, device=task.device)  # the runner decides where networks live
+    cfg = on_task_device(cfg, task)
     learner = TRPO(task.obs_dim, task.act_dim, cfg, seed)
     device = learner.device
     extra = expert_features.shape[1] - n_obs * task.obs_dim
@@ -152,11 +152,12 @@ def train_adversarial(
             r = reward(disc(policy_x))
         return r.cpu().numpy().reshape(batch.rewards.shape)
 
-    def on_update(steps: int, learner: TRPO, batch: Batch, info: dict[str, float]) -> None:
-        logger.log(steps, **stats, kl=info["kl"])
-        logger.checkpoint(
-            steps, DeterministicPolicy(learner.policy, task.action_low, task.action_high)
-        )
-
-    train(task.make_env, budget, seed, reward_fn=reward_fn, callback=on_update, learner=learner)
-    return DeterministicPolicy(learner.policy, task.action_low, task.action_high)
+    train(
+        task.make_env,
+        budget,
+        seed,
+        reward_fn=reward_fn,
+        callback=report_each_update(task, logger, stats),
+        learner=learner,
+    )
+    return deterministic(learner, task)

@@ -3,12 +3,10 @@ positive imitation reward earns for staying alive alone."""
 
 from __future__ import annotations
 
-import dataclasses
-
 import numpy as np
 
+from algorithms.common import deterministic, on_task_device, report_each_update
 from bench.registry import Logger, Policy, Task, register
-from bench.rl.networks import DeterministicPolicy
 from bench.rl.trpo import TRPOConfig
 from bench.rl.trpo import train as trpo_train
 
@@ -22,15 +20,12 @@ from bench.rl.trpo import train as trpo_train
 def train(
     task: Task, demos: None, budget: int, seed: int, logger: Logger, config: TRPOConfig
 ) -> Policy:
-    def on_update(steps, learner, batch, info):
-        logger.checkpoint(
-            steps, DeterministicPolicy(learner.policy, task.action_low, task.action_high)
-        )
-
-    config = dataclasses.replace(
-        config, device=task.device
-    )  # the runner decides where networks live
     learner = trpo_train(
-        task.make_env, budget, seed, config, lambda b: np.ones_like(b.rewards), on_update
+        task.make_env,
+        budget,
+        seed,
+        on_task_device(config, task),
+        lambda batch: np.ones_like(batch.rewards),
+        report_each_update(task, logger),
     )
-    return DeterministicPolicy(learner.policy, task.action_low, task.action_high)
+    return deterministic(learner, task)

@@ -30,10 +30,11 @@ import torch
 import torch.nn.functional as F
 from torch import nn
 
+from algorithms.common import deterministic, on_task_device, report_each_update
 from bench.registry import Logger, Policy, Task, register
-from bench.rl.networks import DeterministicPolicy, RunningNorm, mlp
+from bench.rl.networks import RunningNorm, mlp
 from bench.rl.rollout import Batch
-from bench.rl.trpo import TRPO, TRPOConfig
+from bench.rl.trpo import TRPOConfig
 from bench.rl.trpo import train as trpo_train
 from bench.types import Demos
 
@@ -173,11 +174,12 @@ def train(
         r = offset - a * dist2 - b * torch.sqrt(c + dist2)
         return r.numpy().reshape(batch.rewards.shape)
 
-    def on_update(steps: int, learner: TRPO, batch: Batch, info: dict[str, float]) -> None:
-        logger.log(steps, **stats, kl=info["kl"])
-        logger.checkpoint(
-            steps, DeterministicPolicy(learner.policy, task.action_low, task.action_high)
-        )
-
-    learner = trpo_train(task.make_env, budget, seed, cfg, reward_fn, on_update)
-    return DeterministicPolicy(learner.policy, task.action_low, task.action_high)
+    learner = trpo_train(
+        task.make_env,
+        budget,
+        seed,
+        on_task_device(cfg, task),
+        reward_fn,
+        report_each_update(task, logger, stats),
+    )
+    return deterministic(learner, task)
