@@ -22,13 +22,13 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import dataclass
 
-import gymnasium as gym
 import numpy as np
 import torch
 from torch import nn
 
 from bench.registry import Logger, Policy, Task, register
 from bench.rl.networks import DeterministicPolicy, GaussianPolicy, RunningNorm, mlp
+from bench.rl.rollout import VecCollector
 from bench.types import Demos
 
 
@@ -41,13 +41,16 @@ class BCOConfig:
     max_iterations: int | None = None
     """Post-demonstration iterations at most; None: until the budget runs out."""
     n_envs: int = 8
-    """Envs stepped side by side, so the policy runs one batched forward per step."""
+    """Envs stepped side by side, so the policy runs one batched forward per step. Collection
+    goes in whole rounds of n_envs steps, so a phase's steps round down to a multiple of it."""
     inverse_hidden: tuple[int, ...] = (64, 64)
     """Hidden layer sizes of the inverse dynamics MLP (ReLU)."""
     inverse_lr: float = 1e-3
     """Adam learning rate of the inverse model."""
     inverse_steps: int = 2000
-    """Adam minibatch steps per fit of the inverse model (refits warm-start)."""
+    """Adam minibatch steps of the inverse model's first fit."""
+    inverse_refit_steps: int = 500
+    """Adam minibatch steps of each later refit; they warm-start, and the data grows by alpha."""
     val_fraction: float = 0.1
     """Share of the agent's transitions held out to measure the inverse model's error."""
     policy_hidden: tuple[int, ...] = (64, 64)
@@ -64,8 +67,10 @@ class BCOConfig:
     def __post_init__(self) -> None:
         self.inverse_hidden = tuple(self.inverse_hidden)  # YAML gives lists
         self.policy_hidden = tuple(self.policy_hidden)
-        if self.pre_demo_steps < 1 or self.alpha < 0 or not 0 < self.val_fraction < 1:
-            raise ValueError("need pre_demo_steps >= 1, alpha >= 0 and 0 < val_fraction < 1")
+        if self.n_envs < 1 or self.pre_demo_steps < self.n_envs:
+            raise ValueError("need n_envs >= 1 and pre_demo_steps >= n_envs")
+        if self.alpha < 0 or not 0 < self.val_fraction < 1:
+            raise ValueError("need alpha >= 0 and 0 < val_fraction < 1")
 
 
 class InverseModel(nn.Module):
@@ -88,53 +93,19 @@ class InverseModel(nn.Module):
         return self.net(torch.cat([self.s_norm(s), self.d_norm(s_next - s)], dim=1))
 
 
-class Rollouts:
-    """E live envs; `collect` takes exactly n steps over them with one batched action call per round.
-
-    Episodes carry over between calls, like bench.rl.rollout.VecCollector's.
-    """
-
-    def __init__(self, envs: list[gym.Env], seed: int) -> None:
-        self.envs = envs
-        self.obs = np.stack([env.reset(seed=seed + i)[0] for i, env in enumerate(envs)])
-        self.obs = self.obs.astype(np.float32)
-        self.low = envs[0].action_space.low.astype(np.float32)
-        self.high = envs[0].action_space.high.astype(np.float32)
-
-    def collect(
-        self, act: Callable[[np.ndarray], np.ndarray], n: int
-    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """(s, a, s'): (n, O), (n, A) actions as applied (clipped), (n, O) true next observations."""
-        s, a, s_next = [], [], []
-        while len(s) < n:
-            actions = np.clip(act(self.obs), self.low, self.high)
-            for i in range(min(len(self.envs), n - len(s))):  # the last round may be partial
-                o, _, term, trunc, _ = self.envs[i].step(actions[i])
-                s.append(self.obs[i].copy())
-                a.append(actions[i])
-                s_next.append(np.asarray(o, np.float32))
-                if term or trunc:
-                    o, _ = self.envs[i].reset()
-                self.obs[i] = o
-        return np.stack(s), np.stack(a).astype(np.float32), np.stack(s_next)
-
-    def close(self) -> None:
-        for env in self.envs:
-            env.close()
-
-
 def fit_inverse(
     model: InverseModel,
     opt: torch.optim.Optimizer,
     data: tuple[torch.Tensor, torch.Tensor, torch.Tensor],
-    cfg: BCOConfig,
+    steps: int,
+    minibatch: int,
     gen: torch.Generator,
 ) -> float:
-    """`inverse_steps` Adam steps of MSE on minibatches of (s, a, s'); returns the last loss."""
+    """`steps` Adam steps of MSE on minibatches of (s, a, s'); returns the last loss."""
     s, a, s_next = data
     loss = torch.zeros(())
-    for _ in range(cfg.inverse_steps):
-        idx = torch.randint(len(s), (cfg.minibatch,), generator=gen)
+    for _ in range(steps):
+        idx = torch.randint(len(s), (minibatch,), generator=gen)
         loss = (model(s[idx], s_next[idx]) - a[idx]).square().mean()
         opt.zero_grad()
         loss.backward()
@@ -216,6 +187,13 @@ def train(
     def uniform(obs: np.ndarray) -> np.ndarray:
         return rng.uniform(low, high, size=(len(obs), task.act_dim)).astype(np.float32)
 
+    def collect(act: Callable[[np.ndarray], np.ndarray], n: int) -> int:
+        """Step the envs with `act` for n steps rounded down to whole rounds; add them to M's data."""
+        batch = rollouts.run(act, n // cfg.n_envs)
+        applied = np.clip(batch.flat("actions"), low, high)
+        add((batch.flat("obs"), applied, batch.flat("next_obs")))
+        return batch.n_steps
+
     def sampler(policy: GaussianPolicy) -> Callable[[np.ndarray], np.ndarray]:
         @torch.no_grad()
         def sample(obs: np.ndarray) -> np.ndarray:
@@ -225,12 +203,16 @@ def train(
         return sample
 
     chunk = round(cfg.alpha * cfg.pre_demo_steps)
-    rollouts = Rollouts([task.make_env(seed * 1000 + i) for i in range(cfg.n_envs)], seed * 1000)
+    rollouts = VecCollector(
+        [task.make_env(seed * 1000 + i) for i in range(cfg.n_envs)], seed * 1000
+    )
     try:
-        add(rollouts.collect(uniform, cfg.pre_demo_steps))  # pre-demonstration phase
-        steps, iteration = cfg.pre_demo_steps, 0
+        steps, iteration = collect(uniform, cfg.pre_demo_steps), 0  # pre-demonstration phase
         while True:
-            inverse_loss = fit_inverse(model, model_opt, stacked(train_data), cfg, gen)
+            fit_steps = cfg.inverse_steps if iteration == 0 else cfg.inverse_refit_steps
+            inverse_loss = fit_inverse(
+                model, model_opt, stacked(train_data), fit_steps, cfg.minibatch, gen
+            )
             with torch.no_grad():  # label the demonstrations with M's best guess
                 labels = model(demo_s, demo_next).clamp(
                     torch.from_numpy(low), torch.from_numpy(high)
@@ -243,11 +225,10 @@ def train(
                 **inverse_error(model, stacked(val_data)),
             )
             logger.checkpoint(steps, DeterministicPolicy(policy, low, high))
-            if chunk == 0 or steps >= budget or iteration == cfg.max_iterations:
-                break
             n = min(chunk, budget - steps)  # never past the budget: the last chunk may be short
-            add(rollouts.collect(sampler(policy), n))  # post-demonstration phase
-            steps += n
+            if n < cfg.n_envs or iteration == cfg.max_iterations:
+                break
+            steps += collect(sampler(policy), n)  # post-demonstration phase
             iteration += 1
     finally:
         rollouts.close()

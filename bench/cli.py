@@ -56,10 +56,10 @@ def _experts_list(args: argparse.Namespace) -> int:
 
 def _run(args: argparse.Namespace) -> int:
     from bench.runner import run_suite
-    from bench.suite import expand, load_suite
+    from bench.suite import expand, load_suite, select
 
     suite = load_suite(args.suite)
-    specs = expand(suite)
+    specs = select(expand(suite), args.suite, env=args.env, algorithm=args.algorithm)
     results = Path(args.results) if args.results else Path("results") / suite.name
     backend = args.backend or suite.runner.backend
     jobs = args.jobs if args.jobs is not None else suite.runner.jobs
@@ -131,6 +131,18 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument("suite", help="path of a suite file, e.g. suites/quick.yaml")
     run.add_argument(
         "--results", metavar="DIR", help="where records go (default results/<suite name>)"
+    )
+    run.add_argument(
+        "--env",
+        action="append",
+        metavar="ID",
+        help="run only this env's trials (repeatable); records stay those of the whole suite",
+    )
+    run.add_argument(
+        "--algorithm",
+        action="append",
+        metavar="NAME",
+        help="run only this algorithm's trials (repeatable)",
     )
     run.add_argument(
         "--jobs", type=int, help="parallel trials (default: the suite's, else all cores)"

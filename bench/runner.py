@@ -181,6 +181,7 @@ def run_suite(
 ) -> RunSummary:
     """Run every pending trial in parallel, writing each record as it finishes."""
     todo = pending(specs, results_dir, retry_failed)
+    todo.sort(key=lambda s: -s.budget)  # biggest first, so no long trial runs alone at the end
     skipped = len(specs) - len(todo)
     if not todo:
         return RunSummary(0, 0, skipped)

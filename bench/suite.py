@@ -109,6 +109,27 @@ def expand(suite: Suite) -> list[TrialSpec]:
     return specs
 
 
+def select(
+    specs: list[TrialSpec],
+    source: str | Path,
+    env: list[str] | None = None,
+    algorithm: list[str] | None = None,
+) -> list[TrialSpec]:
+    """The trials of some envs and/or algorithms only (None: all); ids are unchanged.
+
+    A name the suite does not have raises SuiteError, so a typo never silently runs nothing.
+    """
+    for key, label, wanted in (("env_id", "envs", env), ("algorithm", "algorithms", algorithm)):
+        if wanted is None:
+            continue
+        have = sorted({getattr(s, key) for s in specs})
+        for name in wanted:
+            if name not in have:
+                raise SuiteError(f"{source}: {name!r} is not one of the suite's {label}: {have}")
+        specs = [s for s in specs if getattr(s, key) in wanted]
+    return specs
+
+
 def _spec(
     suite: Suite, env: EnvSettings, algo: AlgorithmEntry, n_demos: int, seed: int
 ) -> TrialSpec:

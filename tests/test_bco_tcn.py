@@ -8,6 +8,7 @@ import torch
 
 from algorithms import bco, tcn
 from bench import envs, registry
+from bench.rl.rollout import VecCollector
 from bench.runner import run_trial, trial_inputs
 from bench.types import Demos, TrialSpec
 
@@ -45,7 +46,7 @@ def run_state_only(name: str, budget: int, monkeypatch, **hp):
 
 def test_bco_trains_through_the_runner_within_its_budget(cache, monkeypatch):
     # 2000 random steps, then chunks of 1000 policy steps; the last chunk is cut to 500.
-    hp = dict(pre_demo_steps=2000, alpha=0.5, inverse_steps=300, bc_steps=200)
+    hp = dict(pre_demo_steps=2000, alpha=0.5, inverse_steps=300, bc_steps=200, n_envs=4)
     result = run_state_only("bco", 4500, monkeypatch, **hp)
     assert result.env_steps == 4500  # every random and policy step counted, none past the budget
     assert result.logs["env_steps"] == [2000, 3000, 4000, 4500]
@@ -54,6 +55,10 @@ def test_bco_trains_through_the_runner_within_its_budget(cache, monkeypatch):
 
     plain = run_state_only("bco", 4500, monkeypatch, **{**hp, "alpha": 0.0})  # BCO(0)
     assert plain.env_steps == 2000 and plain.logs["env_steps"] == [2000]
+
+    # Collection goes in whole rounds of n_envs: a 500-step remainder over 8 envs is 496 steps.
+    rounded = run_state_only("bco", 4500, monkeypatch, **{**hp, "n_envs": 8})
+    assert rounded.env_steps == 4496 and rounded.logs["env_steps"] == [2000, 3000, 4000, 4496]
 
 
 def test_tcn_trains_through_the_runner_within_its_budget(cache, monkeypatch):
@@ -69,21 +74,24 @@ def test_inverse_model_recovers_random_actions():
     rng = np.random.default_rng(0)
 
     def uniform(obs):
-        return rng.uniform(-1, 1, size=(len(obs), 1))
+        return rng.uniform(-1, 1, size=(len(obs), 1)).astype(np.float32)
 
     def transitions(n: int, seed: int):
-        rollouts = bco.Rollouts([envs.make(PENDULUM, seed + i) for i in range(4)], seed)
+        rollouts = VecCollector([envs.make(PENDULUM, seed + i) for i in range(4)], seed)
         try:
-            return tuple(torch.from_numpy(x) for x in rollouts.collect(uniform, n))
+            batch = rollouts.run(uniform, n // 4)
         finally:
             rollouts.close()
+        return tuple(torch.from_numpy(batch.flat(k)) for k in ("obs", "actions", "next_obs"))
 
     s, a, s_next = train = transitions(8000, 0)
     model = bco.InverseModel(s.shape[1], a.shape[1], cfg.inverse_hidden)
     model.update_norms(s.numpy(), s_next.numpy())
     torch.manual_seed(0)
     opt = torch.optim.Adam(model.net.parameters(), lr=cfg.inverse_lr)
-    bco.fit_inverse(model, opt, train, cfg, torch.Generator().manual_seed(0))
+    bco.fit_inverse(
+        model, opt, train, cfg.inverse_steps, cfg.minibatch, torch.Generator().manual_seed(0)
+    )
     error = bco.inverse_error(model, transitions(2000, 50))
     assert error["inverse_val_r2"] > 0.95, error  # actions have variance 1/3; MSE < 0.017
 

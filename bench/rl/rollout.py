@@ -28,7 +28,7 @@ class Batch:
     obs: np.ndarray
     """(T, E, O) float32."""
     actions: np.ndarray
-    """(T, E, A) float32, as sampled (before clipping to the action bounds)."""
+    """(T, E, A) float32, as the policy gave them (before clipping to the action bounds)."""
     next_obs: np.ndarray
     """(T, E, O) float32."""
     rewards: np.ndarray
@@ -58,7 +58,7 @@ RewardFn = Callable[[Batch], np.ndarray]
 
 
 class VecCollector:
-    """Holds E live envs and collects `Batch`es from them with a Gaussian policy."""
+    """Holds E live envs and collects `Batch`es from them, one batched policy call per step."""
 
     def __init__(self, envs: list[gym.Env], seed: int) -> None:
         self.envs = envs
@@ -71,8 +71,22 @@ class VecCollector:
         self.high = envs[0].action_space.high.astype(np.float32)
         self.gen = torch.Generator().manual_seed(seed)
 
-    @torch.no_grad()
     def collect(self, policy: GaussianPolicy, steps_per_env: int) -> Batch:
+        """A batch from the Gaussian policy: a ~ N(policy(s), exp(log_std)), one forward per step."""
+        device = policy.log_std.device
+        std = policy.log_std.detach().exp()
+
+        @torch.no_grad()
+        def sample(obs: np.ndarray) -> np.ndarray:
+            mean = policy(torch.from_numpy(obs).to(device))
+            return (
+                (mean + std * torch.randn(mean.shape, generator=self.gen).to(device)).cpu().numpy()
+            )
+
+        return self.run(sample, steps_per_env)
+
+    def run(self, act: Callable[[np.ndarray], np.ndarray], steps_per_env: int) -> Batch:
+        """A batch from any batched policy `act`: (E, O) observations -> (E, A) actions."""
         T, E = steps_per_env, len(self.envs)
         obs_dim, act_dim = self.obs.shape[1], self.low.shape[0]
         obs = np.empty((T, E, obs_dim), np.float32)
@@ -84,17 +98,12 @@ class VecCollector:
         timesteps = np.empty((T, E), np.int64)
         ep_returns: list[float] = []
         ep_lengths: list[int] = []
-        device = policy.log_std.device
-        std = policy.log_std.exp()
         for t in range(T):
             obs[t] = self.obs
             timesteps[t] = self.t
-            mean = policy(torch.from_numpy(self.obs).to(device))
-            act = (
-                (mean + std * torch.randn(mean.shape, generator=self.gen).to(device)).cpu().numpy()
-            )
-            actions[t] = act
-            clipped = np.clip(act, self.low, self.high)
+            act_t = act(self.obs)
+            actions[t] = act_t
+            clipped = np.clip(act_t, self.low, self.high)
             for i, env in enumerate(self.envs):
                 o, r, term, trunc, _ = env.step(clipped[i])
                 next_obs[t, i] = o
