@@ -64,6 +64,18 @@ def test_bad_suite_is_one_line_exit_2_and_touches_nothing(case, finished_results
     assert snapshot(finished_results) == before
 
 
+def test_run_of_an_env_not_in_the_suite(finished_results, tmp_path):
+    suite = tmp_path / "good.yaml"
+    suite.write_text("name: good\n" + GOOD)
+    before = snapshot(finished_results)
+    out = bench(
+        "run", str(suite), "--results", str(finished_results), "--env", "HopperBulletEnv-v0"
+    )
+    assert out.returncode == 2 and out.stderr.count("\n") == 1, out.stderr
+    assert "HopperBulletEnv-v0" in out.stderr and "envs" in out.stderr
+    assert snapshot(finished_results) == before
+
+
 def test_missing_suite_file():
     out = bench("run", "no/such/suite.yaml")
     assert (

@@ -9,7 +9,7 @@ import pytest
 import yaml
 
 from bench import paths, registry
-from bench.suite import DEMO_POOL_SIZE, RunnerSettings, SuiteError, expand, load_suite
+from bench.suite import DEMO_POOL_SIZE, RunnerSettings, SuiteError, expand, load_suite, select
 
 PENDULUM = "InvertedPendulumBulletEnv-v0"
 HOPPER = "HopperBulletEnv-v0"
@@ -151,6 +151,23 @@ def test_expand_counts_order_and_references(tmp_path):
         "steps": 10,
         "normalize": True,
     }
+
+
+def test_select_keeps_a_slice_with_the_same_ids(tmp_path):
+    path = write(tmp_path, base())
+    specs = expand(load_suite(path))
+    hopper = select(specs, path, env=[HOPPER])
+    assert hopper == [s for s in specs if s.env_id == HOPPER]  # same specs, so the same ids
+    ifo = select(specs, path, env=[HOPPER, PENDULUM], algorithm=["ifo"])
+    assert len(ifo) == 2 * 2 * 3 and {s.algorithm for s in ifo} == {"ifo"}
+    assert select(specs, path) == specs
+
+
+@pytest.mark.parametrize("key", ["env", "algorithm"])
+def test_select_of_a_name_not_in_the_suite_fails(tmp_path, key):
+    path = write(tmp_path, base())
+    with pytest.raises(SuiteError, match=rf"x\.yaml: 'Nope' is not one of the suite's {key}s"):
+        select(expand(load_suite(path)), path, **{key: ["Nope"]})
 
 
 def _set(raw: dict, keys: tuple, value) -> dict:
