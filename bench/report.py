@@ -111,6 +111,7 @@ def write_report(results_dir: Path, out_dir: Path | None = None, reps: int = 200
         per_env,
         *(text for text, _, _ in per_count),
         _references(df),
+        _costs(df),
     ]
     path = out_dir / REPORT
     path.write_text("\n\n".join(s.strip() for s in sections if s) + "\n")
@@ -427,6 +428,39 @@ def _references(df: pd.DataFrame) -> str:
             spread = "" if pd.isna(r["std"]) else f" ± {r['std']:.1f}"
             cells.append(f"{r['mean']:.1f}{spread} ({seeds})")
         lines.append(_row([plot.env_label(env_id), *cells]))
+    return "\n".join(lines)
+
+
+def _costs(df: pd.DataFrame) -> str:
+    """Measured cost per trial, to size a bigger run (e.g. on a cluster) before starting it."""
+    ok = df[df["status"] == "ok"]
+    lines = [
+        "## Cost per trial",
+        "",
+        "Wall time of one trial on one core (training and every evaluation), mean over its "
+        "trials; a trial never uses more than one core. Total core-hours of a bigger run = "
+        "trials x wall time.",
+        "",
+        "| env | algorithm | budget (env steps) | trials | wall time per trial | core-hours |",
+        "|---|---|---:|---:|---:|---:|",
+    ]
+    for env_id in plot.env_order(ok["env_id"].unique()):
+        rows = ok[ok["env_id"] == env_id]
+        for algorithm in _in_order(rows["algorithm"]):
+            cell = rows[rows["algorithm"] == algorithm]
+            budget = ", ".join(f"{b:,}" for b in sorted(cell["budget"].unique()))
+            lines.append(
+                _row(
+                    [
+                        plot.env_label(env_id),
+                        plot.algorithm_label(algorithm),
+                        budget,
+                        len(cell),
+                        _duration(cell["wall_time"].mean()),
+                        f"{cell['wall_time'].sum() / 3600:.2f}",
+                    ]
+                )
+            )
     return "\n".join(lines)
 
 

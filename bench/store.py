@@ -30,7 +30,7 @@ TRIALS = "trials"
 STALE_TMP_SECONDS = 600.0
 """A *.tmp older than this is a dead writer's; younger ones may belong to a live worker."""
 
-SPEC_COLUMNS = ["suite", "env_id", "algorithm", "n_demos", "seed"]
+SPEC_COLUMNS = ["suite", "env_id", "algorithm", "n_demos", "seed", "budget"]
 TRIAL_COLUMNS = [
     *SPEC_COLUMNS,
     "trial_id",

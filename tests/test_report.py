@@ -122,6 +122,14 @@ def test_report_numbers(written):
     assert "| Hopper | -5.0 ± 28.9 (4 seeds) | 2500.0 ± 28.9 (4 seeds) |" in written.read_text()
 
 
+def test_cost_per_trial(written):
+    text = written.read_text()
+    assert "## Cost per trial" in text
+    # 4 ok seeds x 2 demo counts of 12.5 s; the failed fifth seed is not counted
+    assert "| InvertedPendulum | GAIfO | 1,000 | 8 | 12 s | 0.03 |" in text
+    assert "| Hopper | Random | 1,000 | 4 | 12 s | 0.01 |" in text
+
+
 def test_iqm_curves_are_rliable_iqm_per_step():
     rows = [
         ("E", "gaifo", 1, seed, step, value)
