@@ -29,6 +29,23 @@ def reference_returns(df: pd.DataFrame) -> pd.DataFrame:
     )
 
 
+def check_one_record_per_seed(df: pd.DataFrame) -> None:
+    """Raise NormalizationError if a seed of an (env, algorithm, demos) cell has two records.
+
+    That happens when a suite's settings (a budget, a hyperparameter) changed and it was rerun
+    into the same folder: averaging the old trials with the new ones would be wrong.
+    """
+    keys = ["env_id", "algorithm", "n_demos", "seed"]
+    counts = df.groupby(keys).size()
+    if (counts > 1).any():
+        env_id, algorithm, n_demos, seed = counts[counts > 1].index[0]
+        raise NormalizationError(
+            f"{env_id}: {algorithm} with {n_demos} demos, seed {seed}, has "
+            f"{counts.max()} records of different settings in one results folder "
+            f"({int((counts > 1).sum())} such cells); move the stale records out of it"
+        )
+
+
 def normalize(df: pd.DataFrame, references: pd.DataFrame | None = None) -> pd.DataFrame:
     """`df` plus a `normalized` column (NaN where `return` is NaN, e.g. failed trials).
 
@@ -37,6 +54,8 @@ def normalize(df: pd.DataFrame, references: pd.DataFrame | None = None) -> pd.Da
     Raises NormalizationError if an env of `df` lacks a reference, or if its
     expert does no better than random (the scale would be meaningless).
     """
+    if references is None:  # trials, not curves: one record per cell and seed
+        check_one_record_per_seed(df)
     refs = reference_returns(df) if references is None else references
     refs = refs.set_index("env_id")
     for env_id in df["env_id"].unique():

@@ -88,6 +88,13 @@ def test_missing_references_name_env_and_reference(rows, message):
     assert "\n" not in str(info.value)
 
 
+def test_two_records_of_one_seed_are_refused():
+    # e.g. a suite rerun into the same folder after its budget changed
+    frame = trials(REFS + [("A", "gaifo", 5, 0, "ok", 60.0), ("A", "gaifo", 5, 0, "ok", 90.0)])
+    with pytest.raises(NormalizationError, match="A: gaifo with 5 demos, seed 0, has 2 records"):
+        normalize(frame)
+
+
 # ---------------------------------------------------------------- stats
 
 
