@@ -37,12 +37,13 @@ def check_one_record_per_seed(df: pd.DataFrame) -> None:
     """
     keys = ["env_id", "algorithm", "n_demos", "seed"]
     counts = df.groupby(keys).size()
-    if (counts > 1).any():
-        env_id, algorithm, n_demos, seed = counts[counts > 1].index[0]
+    repeated = counts[counts > 1]
+    if len(repeated):
+        (env_id, algorithm, n_demos, seed), n = next(iter(repeated.items()))
         raise NormalizationError(
             f"{env_id}: {algorithm} with {n_demos} demos, seed {seed}, has "
-            f"{counts.max()} records of different settings in one results folder "
-            f"({int((counts > 1).sum())} such cells); move the stale records out of it"
+            f"{n} records of different settings in one results folder "
+            f"({len(repeated)} such cells); move the stale records out of it"
         )
 
 
