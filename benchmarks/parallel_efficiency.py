@@ -1,19 +1,24 @@
 """Parallel efficiency of the runner: trials per hour with N jobs over 1 job.
 
-    python benchmarks/parallel_efficiency.py [--jobs 2] [--trials 8] [--budget 40960] [--repeats 3]
+    python benchmarks/parallel_efficiency.py [--suite suites/quick.yaml] [--env ID]
+                                             [--algorithm NAME] [--trials 16]
+                                             [--jobs 2] [--repeats 3]
 
-Runs the same small suite (GAIfO on InvertedPendulum, one demonstration) into
-fresh temporary folders with 1 job and with N jobs, twice:
+Runs `--trials` trials of a real suite (spread evenly over its trial list, so
+every algorithm is in the sample) into fresh temporary folders, once with
+1 job and once with N jobs, exactly as `bench run --jobs` would: the N-job run
+starts its own worker processes inside the timed run. With the defaults that
+is 16 quick-suite trials of ~7 s each, about 3 minutes per repeat.
 
-- cold: worker processes start inside the timed run. Each pays ~3 s once
-  (importing torch and PyBullet, and torch.optim's first use of torch._dynamo),
-  which short suites feel and long ones do not.
-- warm: one tiny trial per worker runs first, untimed, so the timed run sees
-  what the trials of a long suite see.
-
-It prints trials/hour for each and their ratio divided by N. A shared VM's
-speed drifts by 20% from minute to minute, so each figure is the median of
-`--repeats` runs, the 1-job and N-job runs alternating.
+Efficiency is (trials/h with N jobs) / (N x trials/h with 1 job). It splits
+into two factors, printed for each repeat:
+- busy: the share of the N cores' time spent inside trials. The rest is
+  worker start-up (importing torch and PyBullet, ~2 s per worker) and the
+  tail, when the last trial runs alone.
+- slowdown: a trial's mean wall time with N jobs over that with 1 job, from
+  cores sharing caches and memory bandwidth (and, on a shared VM, neighbours).
+A shared VM's speed drifts by 20% from minute to minute, so the summary is the
+median over `--repeats`, 1-job and N-job runs alternating.
 """
 
 from __future__ import annotations
@@ -22,64 +27,77 @@ import argparse
 import statistics
 import tempfile
 import time
+from dataclasses import dataclass
 from pathlib import Path
 
 from joblib.externals.loky import get_reusable_executor
 
+from bench import store
 from bench.runner import run_suite
+from bench.suite import expand, load_suite, select
 from bench.types import TrialSpec
 
-ENV = "InvertedPendulumBulletEnv-v0"
+
+@dataclass(frozen=True)
+class Timing:
+    elapsed: float
+    """Wall time of the whole run, seconds."""
+    trial_seconds: float
+    """Sum of the trials' own wall times."""
 
 
-def trials_per_hour(specs: list[TrialSpec], jobs: int) -> float:
+def timed_run(specs: list[TrialSpec], jobs: int) -> Timing:
+    get_reusable_executor().shutdown(wait=True)  # fresh workers, as a new `bench run` has
     with tempfile.TemporaryDirectory() as tmp:
         start = time.perf_counter()
         summary = run_suite(specs, Path(tmp), jobs=jobs, progress=False)
         elapsed = time.perf_counter() - start
-    assert summary.failed == 0 and summary.done == len(specs)
-    return len(specs) / elapsed * 3600
+        trial_seconds = float(store.load(tmp)["wall_time"].sum())
+    if summary.failed or summary.done != len(specs):
+        raise SystemExit(f"benchmark run failed: {summary}")
+    return Timing(elapsed, trial_seconds)
 
 
-def warm_up(jobs: int) -> None:
-    """One smallest-budget trial per worker; loky keeps the workers for the next run."""
-    specs = [TrialSpec("warm-up", ENV, "gaifo", 1, 1000 + i, 2048, 1) for i in range(jobs)]
-    trials_per_hour(specs, jobs)
-
-
-def efficiency(specs: list[TrialSpec], jobs: int, warm: bool, repeats: int) -> str:
-    ones, manys = [], []
-    for _ in range(repeats):
-        if warm:
-            warm_up(1)
-        ones.append(trials_per_hour(specs, 1))
-        if warm:
-            warm_up(jobs)
-        else:
-            get_reusable_executor().shutdown(wait=True)  # fresh workers for a cold run
-        manys.append(trials_per_hour(specs, jobs))
-    one, many = statistics.median(ones), statistics.median(manys)
-    label = "warm" if warm else "cold"
-    return (
-        f"{label}: 1 job {one:,.0f} trials/h   {jobs} jobs {many:,.0f} trials/h   "
-        f"efficiency {many / one / jobs:.2f}"
-    )
+def spread(specs: list[TrialSpec], n: int) -> list[TrialSpec]:
+    """`n` trials evenly spaced over the suite's list (all of them if it has fewer)."""
+    if n >= len(specs):
+        return specs
+    return [specs[round(i * len(specs) / n)] for i in range(n)]
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
     )
+    parser.add_argument("--suite", default="suites/quick.yaml")
+    parser.add_argument("--env", action="append", help="only this env of the suite (repeatable)")
+    parser.add_argument(
+        "--algorithm", action="append", help="only this algorithm of the suite (repeatable)"
+    )
+    parser.add_argument("--trials", type=int, default=16)
     parser.add_argument("--jobs", type=int, default=2)
-    parser.add_argument("--trials", type=int, default=8)
-    parser.add_argument("--budget", type=int, default=40960)
     parser.add_argument("--repeats", type=int, default=3)
     args = parser.parse_args()
-    specs = [
-        TrialSpec("parallel", ENV, "gaifo", 1, seed, args.budget, 5) for seed in range(args.trials)
-    ]
-    print(efficiency(specs, args.jobs, warm=False, repeats=args.repeats), flush=True)
-    print(efficiency(specs, args.jobs, warm=True, repeats=args.repeats))
+    specs = select(expand(load_suite(args.suite)), args.suite, args.env, args.algorithm)
+    specs = spread(specs, args.trials)
+    print(f"{len(specs)} trials of {args.suite}, 1 job vs {args.jobs} jobs", flush=True)
+
+    effs, busies, slowdowns = [], [], []
+    for k in range(args.repeats):
+        one, many = timed_run(specs, 1), timed_run(specs, args.jobs)
+        eff = one.elapsed / (args.jobs * many.elapsed)
+        busy = many.trial_seconds / (args.jobs * many.elapsed)
+        slowdown = many.trial_seconds / one.trial_seconds
+        effs.append(eff), busies.append(busy), slowdowns.append(slowdown)
+        print(
+            f"repeat {k + 1}: 1 job {one.elapsed:6.1f} s   {args.jobs} jobs {many.elapsed:6.1f} s   "
+            f"efficiency {eff:.2f}   busy {busy:.2f}   slowdown {slowdown:.2f}",
+            flush=True,
+        )
+    print(
+        f"median: efficiency {statistics.median(effs):.2f}   busy {statistics.median(busies):.2f}"
+        f"   slowdown {statistics.median(slowdowns):.2f}"
+    )
 
 
 if __name__ == "__main__":
