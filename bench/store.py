@@ -92,12 +92,12 @@ def read(path: str | Path) -> TrialResult:
 
 def finished(results_dir: str | Path) -> dict[str, str]:
     """trial_id -> status ("ok" or "failed") of every readable record."""
-    return {r.trial_id: r.status for r in _scan(results_dir)}
+    return {r.trial_id: r.status for r in scan(results_dir)}
 
 
 def load(results_dir: str | Path) -> pd.DataFrame:
     """One row per trial: TRIAL_COLUMNS; `return` is the mean evaluation return (NaN if failed)."""
-    rows = [_trial_row(r) for r in _scan(results_dir)]
+    rows = [_trial_row(r) for r in scan(results_dir)]
     return _frame(rows, TRIAL_COLUMNS, ["env_id", "algorithm", "n_demos", "seed", "trial_id"])
 
 
@@ -109,7 +109,7 @@ def load_curves(results_dir: str | Path) -> pd.DataFrame:
     """
     rows = [
         {**_spec_row(r), "env_steps": p.env_steps, "return": p.mean_return}
-        for r in _scan(results_dir)
+        for r in scan(results_dir)
         if r.status == "ok"
         for p in r.curve
     ]
@@ -120,7 +120,7 @@ def load_logs(results_dir: str | Path) -> pd.DataFrame:
     """Algorithm diagnostics, long format: LOG_COLUMNS; `index` counts entries per key."""
     rows = [
         {**_spec_row(r), "key": key, "index": i, "value": v}
-        for r in _scan(results_dir)
+        for r in scan(results_dir)
         for key, values in r.logs.items()
         for i, v in enumerate(values)
     ]
@@ -154,7 +154,7 @@ def find_result_dirs(root: str | Path) -> list[Path]:
 # ---------------------------------------------------------------- helpers
 
 
-def _scan(results_dir: str | Path) -> Iterator[TrialResult]:
+def scan(results_dir: str | Path) -> Iterator[TrialResult]:
     """Every readable record, in file-name order; unreadable ones are warned about and skipped."""
     folder = trials_dir(results_dir)
     if not folder.is_dir():

@@ -12,8 +12,9 @@ import numpy as np
 import pytest
 
 from bench import store
-from bench.runner import run_suite
+from bench.runner import CostModel, _jobs, run_suite
 from bench.suite import expand, load_suite
+from bench.types import TrialSpec
 
 PENDULUM = "InvertedPendulumBulletEnv-v0"
 
@@ -171,3 +172,25 @@ def test_plugin_algorithm_through_an_entry_point(tmp_path):
     out = bench("run", str(suite), "--results", str(tmp_path / "res"), "--jobs", "1", env=env)
     assert out.returncode == 0, out.stderr
     assert store.load(tmp_path / "res").algorithm.tolist() == ["zero"]
+
+
+def test_dispatch_runs_unseen_kinds_then_the_costliest_first():
+    def spec(env: str, algorithm: str, seed: int, budget: int = 1000) -> TrialSpec:
+        return TrialSpec("t", env, algorithm, 0, seed, budget, 1)
+
+    cheap, dear = spec(PENDULUM, "random", 1), spec(PENDULUM, "survival", 1)
+    unseen = spec("HopperBulletEnv-v0", "random", 0, budget=10)
+    costs = CostModel()
+    costs.observe(spec(PENDULUM, "random", 0), 0.1)  # 0.1 s per 1000 steps
+    costs.observe(spec(PENDULUM, "survival", 0), 10.0)
+    jobs = _jobs([cheap, dear, unseen], costs, "cpu")
+    assert next(jobs)[1][0] == unseen  # its cost is unknown: learn it early
+    assert next(jobs)[1][0] == dear  # then the costliest; the cheap one fills the tail
+
+    costs = CostModel()
+    costs.observe(spec(PENDULUM, "random", 0), 0.1)
+    costs.observe(spec(PENDULUM, "survival", 0), 10.0)
+    jobs = _jobs([cheap, dear, spec(PENDULUM, "survival", 2)], costs, "cpu")
+    assert next(jobs)[1][0] == dear
+    costs.observe(spec(PENDULUM, "random", 2), 100.0)  # a slow one finished meanwhile
+    assert next(jobs)[1][0] == cheap  # the order follows what was learned
