@@ -175,22 +175,24 @@ class CostModel:
     references (random, expert) take almost nothing.
     """
 
-    rates: dict[tuple[str, str], list[float]] = field(default_factory=dict)
-    lock: threading.Lock = field(default_factory=threading.Lock)
+    totals: dict[tuple[str, str], tuple[float, int]] = field(default_factory=dict)
+    """(sum of seconds per env step, trials) by (env, algorithm)."""
+    lock: threading.Lock = field(default_factory=threading.Lock)  # joblib dispatches from a thread
 
     def observe(self, spec: TrialSpec, wall_time: float) -> None:
+        key = (spec.env_id, spec.algorithm)
         with self.lock:
-            self.rates.setdefault((spec.env_id, spec.algorithm), []).append(
-                wall_time / max(spec.budget, 1)
-            )
+            total, n = self.totals.get(key, (0.0, 0))
+            self.totals[key] = (total + wall_time / max(spec.budget, 1), n + 1)
 
     def priority(self, spec: TrialSpec) -> tuple[int, float]:
         """Higher runs sooner: never-seen kinds first (by budget), then by expected seconds."""
         with self.lock:
-            seen = self.rates.get((spec.env_id, spec.algorithm))
-            if not seen:
-                return (1, float(spec.budget))
-            return (0, float(np.mean(seen)) * spec.budget)
+            seen = self.totals.get((spec.env_id, spec.algorithm))
+        if seen is None:
+            return (1, float(spec.budget))
+        total, n = seen
+        return (0, total / n * spec.budget)
 
 
 def _jobs(specs: list[TrialSpec], costs: CostModel, device: str) -> Iterator:
@@ -214,12 +216,12 @@ def run_suite(
     """Run every pending trial in parallel, writing each record as it finishes."""
     todo = pending(specs, results_dir, retry_failed)
     skipped = len(specs) - len(todo)
+    if not todo:
+        return RunSummary(0, 0, skipped)
     costs = CostModel()
     for r in store.scan(results_dir):  # what earlier runs into this folder measured
         if r.status == "ok":
             costs.observe(r.spec, r.wall_time)
-    if not todo:
-        return RunSummary(0, 0, skipped)
     for env_id in sorted({s.env_id for s in todo}):  # record demo pools once, before forking
         if any(
             registry.get(s.algorithm).inputs in ("states", "actions")
@@ -250,7 +252,6 @@ def run_suite(
                 store.write(results_dir, result)
                 if result.status == "ok":
                     costs.observe(result.spec, result.wall_time)
-                if result.status == "ok":
                     done += 1
                 else:
                     failed += 1
