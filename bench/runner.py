@@ -154,9 +154,8 @@ class RunSummary:
     skipped: int
 
 
-def pending(specs: list[TrialSpec], results_dir: Path, retry_failed: bool) -> list[TrialSpec]:
-    """Trials without a record (and failed ones too when `retry_failed`)."""
-    have = store.finished(results_dir)
+def pending(specs: list[TrialSpec], have: dict[str, str], retry_failed: bool) -> list[TrialSpec]:
+    """Trials without a record in `have` (trial id -> status), and failed ones when `retry_failed`."""
     keep = []
     for spec in specs:
         status = have.get(spec.trial_id)
@@ -214,12 +213,13 @@ def run_suite(
     progress: bool = True,
 ) -> RunSummary:
     """Run every pending trial in parallel, writing each record as it finishes."""
-    todo = pending(specs, results_dir, retry_failed)
+    records = list(store.scan(results_dir))
+    todo = pending(specs, {r.trial_id: r.status for r in records}, retry_failed)
     skipped = len(specs) - len(todo)
     if not todo:
         return RunSummary(0, 0, skipped)
     costs = CostModel()
-    for r in store.scan(results_dir):  # what earlier runs into this folder measured
+    for r in records:  # what earlier runs into this folder measured
         if r.status == "ok":
             costs.observe(r.spec, r.wall_time)
     for env_id in sorted({s.env_id for s in todo}):  # record demo pools once, before forking

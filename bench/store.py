@@ -90,11 +90,6 @@ def read(path: str | Path) -> TrialResult:
     )
 
 
-def finished(results_dir: str | Path) -> dict[str, str]:
-    """trial_id -> status ("ok" or "failed") of every readable record."""
-    return {r.trial_id: r.status for r in scan(results_dir)}
-
-
 def load(results_dir: str | Path) -> pd.DataFrame:
     """One row per trial: TRIAL_COLUMNS; `return` is the mean evaluation return (NaN if failed)."""
     rows = [_trial_row(r) for r in scan(results_dir)]

@@ -88,7 +88,9 @@ def main() -> None:
         eff = one.elapsed / (args.jobs * many.elapsed)
         busy = many.trial_seconds / (args.jobs * many.elapsed)
         slowdown = many.trial_seconds / one.trial_seconds
-        effs.append(eff), busies.append(busy), slowdowns.append(slowdown)
+        effs.append(eff)
+        busies.append(busy)
+        slowdowns.append(slowdown)
         print(
             f"repeat {k + 1}: 1 job {one.elapsed:6.1f} s   {args.jobs} jobs {many.elapsed:6.1f} s   "
             f"efficiency {eff:.2f}   busy {busy:.2f}   slowdown {slowdown:.2f}",

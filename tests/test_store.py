@@ -93,7 +93,7 @@ def test_stray_temp_files_are_ignored_and_stale_ones_cleaned(tmp_path):
     live = folder / "cafe.456.tmp"  # a writer still at work elsewhere
     live.write_text("{")
 
-    assert store.finished(tmp_path) == {done.stem: "ok"}
+    assert [(r.trial_id, r.status) for r in store.scan(tmp_path)] == [(done.stem, "ok")]
     assert not stale.exists()
     assert live.exists()
 
@@ -103,15 +103,15 @@ def test_corrupt_records_are_skipped_with_a_warning(tmp_path):
     (tmp_path / "trials" / "truncated.json").write_text('{"spec": {')
     (tmp_path / "trials" / "wrong.json").write_text('{"spec": {"suite": "x"}}')
     with pytest.warns(UserWarning) as caught:
-        assert store.finished(tmp_path) == {good.stem: "ok"}
+        assert [(r.trial_id, r.status) for r in store.scan(tmp_path)] == [(good.stem, "ok")]
     assert ["truncated.json" in str(w.message) for w in caught] == [True, False]
     assert "wrong.json" in str(caught[1].message)
     with pytest.warns(UserWarning, match="skipping unreadable trial record"):
         assert len(store.load(tmp_path)) == 1
 
 
-def test_finished_of_a_missing_folder_is_empty(tmp_path):
-    assert store.finished(tmp_path / "nothing") == {}
+def test_a_missing_folder_has_no_records(tmp_path):
+    assert list(store.scan(tmp_path / "nothing")) == []
     frame = store.load(tmp_path / "nothing")
     assert frame.empty and list(frame.columns) == store.TRIAL_COLUMNS
 
