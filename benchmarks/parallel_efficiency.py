@@ -13,10 +13,11 @@ is 16 quick-suite trials of ~7 s each, about 3 minutes per repeat.
 Efficiency is (trials/h with N jobs) / (N x trials/h with 1 job). It splits
 into two factors, printed for each repeat:
 - busy: the share of the N cores' time spent inside trials. The rest is
-  worker start-up (importing torch and PyBullet, ~2 s per worker) and the
+  worker start-up (~4 s per worker: starting Python and importing torch and
+  PyBullet, then torch.optim's first step importing torch._dynamo) and the
   tail, when the last trial runs alone.
-- slowdown: a trial's mean wall time with N jobs over that with 1 job, from
-  cores sharing caches and memory bandwidth (and, on a shared VM, neighbours).
+- slowdown: the trials' summed wall time with N jobs over that with 1 job:
+  trials running side by side on shared hardware (and, on a VM, neighbours).
 A shared VM's speed drifts by 20% from minute to minute, so the summary is the
 median over `--repeats`, 1-job and N-job runs alternating.
 """
