@@ -53,7 +53,7 @@ def timed_run(specs: list[TrialSpec], jobs: int) -> Timing:
         start = time.perf_counter()
         summary = run_suite(specs, Path(tmp), jobs=jobs, progress=False)
         elapsed = time.perf_counter() - start
-        trial_seconds = float(store.load(tmp)["wall_time"].sum())
+        trial_seconds = sum(r.wall_time for r in store.scan(tmp))
     if summary.failed or summary.done != len(specs):
         raise SystemExit(f"benchmark run failed: {summary}")
     return Timing(elapsed, trial_seconds)
