@@ -4,10 +4,13 @@ Each iteration: collect a batch with the current policy, train the
 discriminator D (Adam, cross-entropy, expert = 1) on policy vs expert samples,
 then take one TRPO step on the reward D gives the batch.
 
-Termination bias: PyBullet tasks end early when the agent falls, so a reward
-that is always positive (-log(1 - D), the default) pays for survival whatever
-D says, and one that is always negative (log D) pays for ending episodes fast;
-compare with the `survival` control before crediting the imitation.
+Termination bias: PyBullet tasks end early when the agent falls. Valued as 0,
+a fall is worth less than any step of a reward that is always positive
+(-log(1 - D)), which then pays for survival whatever D says, and more than any
+step of one that is always negative (log D), which pays for falling fast. With
+`absorbing` (the default) a termination leads into an absorbing state that D
+judges like any other input (`bench.rl.absorbing`), and the signed reward
+log D - log(1 - D) pays neither for survival nor for falling.
 """
 
 from __future__ import annotations
@@ -20,11 +23,18 @@ import torch
 import torch.nn.functional as F
 from torch import nn
 
-from algorithms.common import deterministic, on_task_device, report_each_update
+from algorithms.common import (
+    ImitationTRPOConfig,
+    deterministic,
+    on_task_device,
+    report_each_update,
+)
 from bench.registry import Logger, Task
+from bench.rl import absorbing
+from bench.rl.absorbing import Transitions
 from bench.rl.networks import DeterministicPolicy, RunningNorm, mlp
-from bench.rl.rollout import Batch
-from bench.rl.trpo import TRPO, TRPOConfig, train
+from bench.rl.rollout import Batch, Rewards
+from bench.rl.trpo import TRPO, train
 
 REWARDS: dict[str, Callable[[torch.Tensor], torch.Tensor]] = {
     "-log(1-D)": lambda logit: F.softplus(logit),  # -log(1 - sigmoid(x)) = softplus(x) > 0
@@ -34,11 +44,8 @@ REWARDS: dict[str, Callable[[torch.Tensor], torch.Tensor]] = {
 
 
 @dataclass
-class AdversarialConfig(TRPOConfig):
-    """TRPO's settings (inherited, two defaults changed) plus the discriminator's."""
-
-    init_log_std: float = -0.5
-    """Less action noise than plain TRPO: a noisy policy is told apart from the expert by its noise alone."""
+class AdversarialConfig(ImitationTRPOConfig):
+    """TRPO's settings (inherited, shared with the `survival` control) plus the discriminator's."""
 
     disc_hidden: tuple[int, ...] = (100, 100)
     """Hidden layer sizes of the discriminator MLP (tanh)."""
@@ -54,6 +61,8 @@ class AdversarialConfig(TRPOConfig):
     """Gradient norm the penalty pulls towards: 0 (zero-centred) or 1 (WGAN-GP style)."""
     reward: str = "-log(1-D)"
     """Policy reward as a function of D = P(expert): "-log(1-D)", "log D" or "log D - log(1-D)"."""
+    absorbing: bool = True
+    """Terminations lead into an absorbing state that D judges (bench.rl.absorbing); off: valued 0."""
 
     def __post_init__(self) -> None:
         if self.reward not in REWARDS:
@@ -63,43 +72,52 @@ class AdversarialConfig(TRPOConfig):
         self.hidden, self.disc_hidden = tuple(self.hidden), tuple(self.disc_hidden)
 
 
+Features = Callable[[torch.Tensor, torch.Tensor, torch.Tensor], torch.Tensor]
+"""features(s, a, s') -> (N, F) D input, from (N, O+1) observations (normalized, absorbing flag
+last), (N, A) actions and (N, O+1) next observations. GAIfO uses (s, s'), GAIL (s, a)."""
+
+
 class Discriminator(nn.Module):
-    """Logit of P(expert | features); observations normalized with the policy's statistics."""
+    """Logit of P(expert | transition); observations normalized with the policy's statistics."""
 
     def __init__(
-        self, norm: RunningNorm, n_obs: int, extra_dim: int, hidden: tuple[int, ...]
+        self, norm: RunningNorm, features: Features, in_dim: int, hidden: tuple[int, ...]
     ) -> None:
         super().__init__()
-        self.norm, self.n_obs = norm, n_obs  # n_obs observation blocks come first, then raw extras
-        obs_dim = norm.mean.numel()
-        self.net = mlp([n_obs * obs_dim + extra_dim, *hidden, 1])
+        self.norm, self.features = norm, features
+        self.net = mlp([in_dim, *hidden, 1])
 
-    def normalize(self, x: torch.Tensor) -> torch.Tensor:
-        """Observation blocks scaled by the policy's statistics; extras (actions) as they are."""
-        d = self.norm.mean.numel()
-        parts = [self.norm(x[:, i * d : (i + 1) * d]) for i in range(self.n_obs)]
-        return torch.cat([*parts, x[:, self.n_obs * d :]], dim=1)
+    def state(self, obs: torch.Tensor, is_absorbing: torch.Tensor) -> torch.Tensor:
+        """(N, O+1): normalized observation and the absorbing flag; the absorbing state is 0, 1."""
+        flag = is_absorbing.float().unsqueeze(1)
+        return torch.cat([self.norm(obs) * (1.0 - flag), flag], dim=1)
 
-    def forward(self, x: torch.Tensor) -> torch.Tensor:
-        return self.net(self.normalize(x)).squeeze(-1)
+    def inputs(self, x: Transitions) -> torch.Tensor:
+        """The (N, F) feature rows D classifies."""
+        return self.features(
+            self.state(x.obs, x.obs_absorbing), x.actions, self.state(x.next_obs, x.next_absorbing)
+        )
+
+    def forward(self, x: Transitions) -> torch.Tensor:
+        return self.net(self.inputs(x)).squeeze(-1)
 
 
 def discriminator_step(
     disc: Discriminator,
     opt: torch.optim.Optimizer,
-    policy_x: torch.Tensor,
-    expert_x: torch.Tensor,
+    policy_x: Transitions,
+    expert_x: Transitions,
     cfg: AdversarialConfig,
     gen: torch.Generator,
 ) -> dict[str, float]:
     """`disc_steps` Adam steps of binary cross-entropy, expert labelled 1; returns the last losses."""
+
+    def minibatch(x: Transitions) -> torch.Tensor:
+        idx = torch.randint(len(x), (cfg.disc_minibatch,), generator=gen)
+        return disc.inputs(x.map(lambda field: field[idx]))
+
     for _ in range(cfg.disc_steps):
-        p = disc.normalize(
-            policy_x[torch.randint(len(policy_x), (cfg.disc_minibatch,), generator=gen)]
-        )
-        e = disc.normalize(
-            expert_x[torch.randint(len(expert_x), (cfg.disc_minibatch,), generator=gen)]
-        )
+        p, e = minibatch(policy_x), minibatch(expert_x)
         logit_p, logit_e = disc.net(p).squeeze(-1), disc.net(e).squeeze(-1)
         bce = F.binary_cross_entropy_with_logits(
             logit_p, torch.zeros_like(logit_p)
@@ -123,34 +141,75 @@ def discriminator_step(
     }
 
 
+def expert_transitions(
+    observations: tuple[np.ndarray, ...],
+    terminated: tuple[bool, ...],
+    actions: tuple[np.ndarray, ...] | None,
+    with_absorbing: bool,
+) -> Transitions:
+    """The demonstrations' transitions, with the absorbing tails of the episodes that terminated.
+
+    observations: (T_i + 1, O) per episode; actions: (T_i, A) per episode, or None (state-only:
+    the actions field then has width 0).
+    """
+    acts = actions or tuple(np.zeros((len(o) - 1, 0), np.float32) for o in observations)
+    parts = [Transitions.real(o[:-1], a, o[1:]) for o, a in zip(observations, acts, strict=True)]
+    finals = [o[-1] for o, t in zip(observations, terminated, strict=True) if t]
+    if with_absorbing and finals:
+        parts.append(absorbing.tails(np.stack(finals), acts[0].shape[1]))
+    return Transitions.concat(parts)
+
+
+def batch_transitions(batch: Batch, task: Task) -> Transitions:
+    """The batch's (T*E) transitions, actions clipped to the bounds as the env applied them."""
+    actions = np.clip(batch.flat("actions"), task.action_low, task.action_high)
+    return Transitions.real(batch.flat("obs"), actions, batch.flat("next_obs"))
+
+
 def train_adversarial(
+    *,
     task: Task,
-    expert_features: np.ndarray,
-    features: Callable[[Batch], np.ndarray],
-    n_obs: int,
-    seed: int,
+    expert: Transitions,
+    features: Features,
     budget: int,
+    seed: int,
     logger: Logger,
     cfg: AdversarialConfig,
 ) -> DeterministicPolicy:
-    """The shared loop. `features(batch)` -> (T*E, F) policy features, laid out like `expert_features`."""
+    """The shared loop: D on `features` of expert vs policy transitions, TRPO on D's reward."""
     cfg = on_task_device(cfg, task)
     learner = TRPO(task.obs_dim, task.act_dim, cfg, seed)
     device = learner.device
-    extra = expert_features.shape[1] - n_obs * task.obs_dim
-    disc = Discriminator(learner.policy.norm, n_obs, extra, cfg.disc_hidden).to(device)
+    to_device = lambda x: x.map(lambda a: torch.as_tensor(a, device=device))  # noqa: E731
+    expert_x = to_device(expert)
+    state, action = torch.zeros(1, task.obs_dim + 1), torch.zeros(1, task.act_dim)
+    in_dim = features(state, action, state).shape[1]
+    disc = Discriminator(learner.policy.norm, features, in_dim, cfg.disc_hidden).to(device)
     opt = torch.optim.Adam(disc.net.parameters(), lr=cfg.disc_lr)
-    expert_x = torch.as_tensor(expert_features, dtype=torch.float32, device=device)
     gen = torch.Generator().manual_seed(seed + 2)
     reward = REWARDS[cfg.reward]
     stats: dict[str, float] = {}
 
-    def reward_fn(batch: Batch) -> np.ndarray:
-        policy_x = torch.as_tensor(features(batch), device=device)
+    def reward_fn(batch: Batch) -> np.ndarray | Rewards:
+        real = batch_transitions(batch, task)
+        terminated = batch.flat("terminated")
+        n_real, n_term = len(real), int(terminated.sum())
+        parts = [real]
+        if cfg.absorbing and n_term:
+            parts.append(absorbing.tails(batch.flat("next_obs")[terminated], task.act_dim))
+        policy_x = to_device(Transitions.concat(parts))
         stats.update(discriminator_step(disc, opt, policy_x, expert_x, cfg, gen))
         with torch.no_grad():
-            r = reward(disc(policy_x))
-        return r.cpu().numpy().reshape(batch.rewards.shape)
+            r = reward(disc(policy_x)).cpu().numpy().astype(np.float64)
+        per_step = r[:n_real].reshape(batch.rewards.shape)
+        if not cfg.absorbing:
+            return per_step
+        after = np.zeros(n_real)
+        if n_term:
+            tail = absorbing.tail_rewards(r[n_real:], n_term)
+            after[terminated] = absorbing.tail_value(tail, cfg.gamma)
+            stats["reward_absorbing"] = float(tail[0, 1])
+        return Rewards(per_step, after.reshape(batch.rewards.shape))
 
     train(
         task.make_env,

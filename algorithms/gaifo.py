@@ -2,17 +2,16 @@
 
 from __future__ import annotations
 
-import numpy as np
+import torch
 
-from algorithms.adversarial import AdversarialConfig, train_adversarial
+from algorithms.adversarial import AdversarialConfig, expert_transitions, train_adversarial
 from bench.registry import Logger, Policy, Task, register
-from bench.rl.rollout import Batch
 from bench.types import Demos
 
 
-def transitions(batch: Batch) -> np.ndarray:
-    """(T*E, 2*O): [s, s'] with s' the true next observation, final ones included."""
-    return np.concatenate([batch.flat("obs"), batch.flat("next_obs")], axis=1)
+def state_transition(s: torch.Tensor, a: torch.Tensor, s_next: torch.Tensor) -> torch.Tensor:
+    """D's input (s, s'): what an observer sees, whatever the action was."""
+    return torch.cat([s, s_next], dim=1)
 
 
 @register(
@@ -24,7 +23,13 @@ def transitions(batch: Batch) -> np.ndarray:
 def train(
     task: Task, demos: Demos, budget: int, seed: int, logger: Logger, config: AdversarialConfig
 ) -> Policy:
-    s, s_next = demos.transitions()
+    expert = expert_transitions(demos.observations, demos.terminated, None, config.absorbing)
     return train_adversarial(
-        task, np.concatenate([s, s_next], 1), transitions, 2, seed, budget, logger, config
+        task=task,
+        expert=expert,
+        features=state_transition,
+        budget=budget,
+        seed=seed,
+        logger=logger,
+        cfg=config,
     )

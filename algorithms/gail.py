@@ -2,17 +2,16 @@
 
 from __future__ import annotations
 
-import numpy as np
+import torch
 
-from algorithms.adversarial import AdversarialConfig, train_adversarial
+from algorithms.adversarial import AdversarialConfig, expert_transitions, train_adversarial
 from bench.registry import Logger, Policy, Task, register
-from bench.rl.rollout import Batch
 from bench.types import ActionDemos
 
 
-def state_actions(batch: Batch, low: np.ndarray, high: np.ndarray) -> np.ndarray:
-    """(T*E, O + A): [s, a] with a clipped to the action bounds, as the expert's were."""
-    return np.concatenate([batch.flat("obs"), np.clip(batch.flat("actions"), low, high)], axis=1)
+def state_action(s: torch.Tensor, a: torch.Tensor, s_next: torch.Tensor) -> torch.Tensor:
+    """D's input (s, a); actions clipped to the bounds, as the expert's were."""
+    return torch.cat([s, a], dim=1)
 
 
 @register(
@@ -26,8 +25,15 @@ def train(
     logger: Logger,
     config: AdversarialConfig,
 ) -> Policy:
-    s, a = demos.state_actions()
-    features = lambda b: state_actions(b, task.action_low, task.action_high)  # noqa: E731
+    expert = expert_transitions(
+        demos.demos.observations, demos.demos.terminated, demos.actions, config.absorbing
+    )
     return train_adversarial(
-        task, np.concatenate([s, a], 1), features, 1, seed, budget, logger, config
+        task=task,
+        expert=expert,
+        features=state_action,
+        budget=budget,
+        seed=seed,
+        logger=logger,
+        cfg=config,
     )

@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import argparse
+import json
+import shlex
 import sys
 from collections.abc import Callable
 from pathlib import Path
@@ -16,13 +18,29 @@ def _experts_train(args: argparse.Namespace) -> int:
     from bench.rl.trpo import TRPOConfig
 
     envs.check_env_id(args.env_id)
-    cfg = TRPOConfig(n_envs=args.n_envs, steps_per_env=args.steps_per_env)
-    meta = train_expert(args.env_id, args.steps, args.seed, cfg)
+    overrides = {"n_envs": args.n_envs, "steps_per_env": args.steps_per_env, **args.hyperparams}
+    try:
+        cfg = TRPOConfig(**overrides)
+    except TypeError as err:
+        raise EnvError(f"--hyperparams: {err}") from None
+    command = shlex.join(["bench", "experts", "train", *sys.argv[3:]])
+    meta = train_expert(args.env_id, args.steps, args.seed, cfg, out_dir=args.out, command=command)
     print(
         f"{meta['env_id']}: return {meta['return_mean']:.1f} +- {meta['return_std']:.1f} "
         f"over {meta['eval_episodes']} episodes ({meta['train_steps']} steps, {meta['wall_time_s']:.0f} s)"
     )
     return 0
+
+
+def _json_object(text: str) -> dict:
+    """argparse type: a JSON object, or an argparse error naming the problem."""
+    try:
+        value = json.loads(text)
+    except json.JSONDecodeError as err:
+        raise argparse.ArgumentTypeError(f"not JSON: {err}") from None
+    if not isinstance(value, dict):
+        raise argparse.ArgumentTypeError("must be a JSON object, e.g. '{\"n_envs\": 16}'")
+    return value
 
 
 def _experts_list(args: argparse.Namespace) -> int:
@@ -206,6 +224,18 @@ def build_parser() -> argparse.ArgumentParser:
     tr.add_argument("--n-envs", type=int, default=8, help="envs per batch (default 8)")
     tr.add_argument(
         "--steps-per-env", type=int, default=256, help="steps per env per update (default 256)"
+    )
+    tr.add_argument(
+        "--hyperparams",
+        type=_json_object,
+        default={},
+        help='TRPOConfig overrides as JSON, e.g. \'{"hidden": [128, 128], "init_log_std": -1.0}\'',
+    )
+    tr.add_argument(
+        "--out",
+        type=Path,
+        default=None,
+        help="save here instead of results/experts/ENV_ID (to compare before replacing the shipped one)",
     )
     tr.set_defaults(func=_experts_train)
     ls = esub.add_parser("list", help="show the available experts and their returns")

@@ -5,6 +5,8 @@ included, and separately the actions and rewards, with the env id and shapes:
   env_id, obs_dim, act_dim       scalars
   obs          (sum (T_i + 1), O)  episodes back to back
   obs_lengths  (N,)                T_i + 1 per episode
+  terminated   (N,)                True where the episode ended in a terminal state, False
+                                   where its time limit cut it
   actions      (sum T_i, A)        kept apart; read only by `load_action_demos`
   rewards      (sum T_i,)
 """
@@ -27,6 +29,10 @@ POOL_SEED = 20_000
 """Env seeds of the pool's episodes are POOL_SEED + i: disjoint from evaluation seeds."""
 
 
+FORMAT = "v2"
+"""Bumped when the file layout changes, so a cached pool of the old layout is re-recorded."""
+
+
 class DemoError(ValueError):
     """A demo file that is missing, malformed, or recorded in another env."""
 
@@ -34,7 +40,7 @@ class DemoError(ValueError):
 def record(env_id: str, policy, n_episodes: int, seed: int) -> dict[str, np.ndarray]:
     """Run `policy` (numpy, deterministic) for `n_episodes` full episodes; arrays as stored."""
     env = envs.make(env_id, seed)
-    obs_eps, act_eps, rew_eps = [], [], []
+    obs_eps, act_eps, rew_eps, terminated = [], [], [], []
     try:
         for k in range(n_episodes):
             o, _ = env.reset(seed=seed + k)
@@ -47,6 +53,7 @@ def record(env_id: str, policy, n_episodes: int, seed: int) -> dict[str, np.ndar
                 acts.append(np.asarray(a, np.float32))
                 rews.append(float(r))
                 done = term or trunc
+            terminated.append(bool(term))
             obs_eps.append(np.stack(obs))
             act_eps.append(np.stack(acts))
             rew_eps.append(np.asarray(rews, np.float32))
@@ -58,6 +65,7 @@ def record(env_id: str, policy, n_episodes: int, seed: int) -> dict[str, np.ndar
         "act_dim": np.array(act_eps[0].shape[1]),
         "obs": np.concatenate(obs_eps),
         "obs_lengths": np.array([len(o) for o in obs_eps]),
+        "terminated": np.array(terminated),
         "actions": np.concatenate(act_eps),
         "rewards": np.concatenate(rew_eps),
     }
@@ -73,7 +81,7 @@ def save(path: Path, arrays: dict[str, np.ndarray]) -> Path:
 def pool_path(env_id: str) -> Path:
     """Cache path of `env_id`'s pool, keyed by the expert's weights so a retrained expert re-records."""
     digest = hashlib.sha256((paths.expert_dir(env_id) / "policy.pt").read_bytes()).hexdigest()[:12]
-    return paths.CACHE_DIR / "demos" / f"{env_id}-{digest}.npz"
+    return paths.CACHE_DIR / "demos" / f"{env_id}-{digest}-{FORMAT}.npz"
 
 
 def ensure_pool(env_id: str) -> Path:
@@ -91,8 +99,10 @@ def _open(path: Path, env_id: str) -> np.lib.npyio.NpzFile:
         raise DemoError(f"demo file {path} does not exist") from None
     except Exception as e:  # zip/npy format errors come in many types
         raise DemoError(f"{path} is not a demo file ({e})") from None
-    if "env_id" not in data or "obs_lengths" not in data:
-        raise DemoError(f"{path} is not a demo file (no env_id/obs_lengths)")
+    if not {"env_id", "obs_lengths", "terminated"} <= set(data.files):
+        raise DemoError(
+            f"{path} is not a demo file of format {FORMAT} (no env_id/obs_lengths/terminated)"
+        )
     if str(data["env_id"]) != env_id:
         raise DemoError(f"{path} holds demonstrations of {data['env_id']}, not {env_id}")
     return data
@@ -116,7 +126,8 @@ def load_demos(path: Path, env_id: str, k: int | None = None, seed: int = 0) -> 
     data = _open(path, env_id)
     eps = _episodes(data["obs"], data["obs_lengths"])
     idx = _pick(len(eps), k, seed)
-    return Demos(env_id, tuple(eps[i] for i in idx))
+    terminated = data["terminated"]
+    return Demos(env_id, tuple(eps[i] for i in idx), tuple(bool(terminated[i]) for i in idx))
 
 
 def load_action_demos(path: Path, env_id: str, k: int | None = None, seed: int = 0) -> ActionDemos:

@@ -103,8 +103,13 @@ def train_expert(
     cfg: TRPOConfig | None = None,
     out_dir: Path | None = None,
     progress: bool = True,
+    command: str | None = None,
 ) -> dict:
-    """Train a TRPO expert on the env reward, keep the better of final and best-seen, save it."""
+    """Train a TRPO expert on the env reward, keep the better of final and best-seen, save it.
+
+    `command` (the command line that asked for it) is kept in meta.json, so an expert says how
+    to train it again.
+    """
     cfg = cfg or TRPOConfig()
     obs_dim, act_dim, low, high = envs.spaces(env_id)
     start = time.time()
@@ -149,6 +154,7 @@ def train_expert(
         "action_high": high.tolist(),
         "hidden": list(cfg.hidden),
         "train_steps": steps,
+        "command": command,
         "snapshot": which,
         "snapshot_steps": at,
         "seed": seed,

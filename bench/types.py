@@ -24,6 +24,9 @@ class Demos:
     env_id: str
     observations: tuple[np.ndarray, ...]
     """One (T_i + 1, O) float32 array per episode; row T_i is the episode's true final observation."""
+    terminated: tuple[bool, ...] | None = None
+    """Per episode: True if it ended in a terminal state (the agent fell), False if a time limit
+    cut it. None means no episode terminated."""
 
     def __post_init__(self) -> None:
         if not self.observations:
@@ -31,6 +34,10 @@ class Demos:
         dims = {o.shape[1] for o in self.observations if o.ndim == 2}
         if len(dims) != 1 or any(o.ndim != 2 or len(o) < 2 for o in self.observations):
             raise ValueError("each episode must be a (T+1, O) array with T >= 1 and one O for all")
+        terminated = (False,) * self.n_episodes if self.terminated is None else self.terminated
+        if len(terminated) != self.n_episodes:
+            raise ValueError("one terminated flag per episode")
+        object.__setattr__(self, "terminated", tuple(bool(t) for t in terminated))
 
     @property
     def obs_dim(self) -> int:

@@ -54,8 +54,8 @@ def trpo_steps_per_s(env_id: str, steps: int, reward_fn=None) -> float:
 
 def gaifo_steps_per_s(env_id: str, steps: int) -> float:
     """GAIfO from one demonstration, timed like `trpo_steps_per_s` (same TRPO settings)."""
-    from algorithms.adversarial import AdversarialConfig, train_adversarial
-    from algorithms.gaifo import transitions
+    from algorithms import gaifo
+    from algorithms.adversarial import AdversarialConfig
     from bench import demos, paths
     from bench.registry import Task
 
@@ -63,7 +63,6 @@ def gaifo_steps_per_s(env_id: str, steps: int) -> float:
         return float("nan")
     obs_dim, act_dim, low, high = envs.spaces(env_id)
     demo = demos.load_demos(demos.ensure_pool(env_id), env_id, k=1, seed=0)
-    expert = np.concatenate(demo.transitions(), axis=1)
     timings: list[tuple[int, float]] = []
     start = time.perf_counter()
 
@@ -75,7 +74,7 @@ def gaifo_steps_per_s(env_id: str, steps: int) -> float:
             pass
 
     task = Task(env_id, obs_dim, act_dim, low, high, make_env=lambda s: envs.make(env_id, s))
-    train_adversarial(task, expert, transitions, 2, 0, steps, Clock(), AdversarialConfig())
+    gaifo.train(task, demo, steps, 0, Clock(), AdversarialConfig())
     (n0, t0), (n1, t1) = timings[0], timings[-1]
     return (n1 - n0) / (t1 - t0)
 

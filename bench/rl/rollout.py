@@ -53,8 +53,23 @@ class Batch:
         return x.reshape(-1, *x.shape[2:])
 
 
-RewardFn = Callable[[Batch], np.ndarray]
-"""Replaces the env reward: Batch -> (T, E) rewards, a function of (obs, action, next_obs) (and timestep)."""
+@dataclass(frozen=True)
+class Rewards:
+    """What a reward function returns when terminations lead into an absorbing state.
+
+    See `bench.rl.absorbing`: a terminated step bootstraps from `after_termination`
+    (the tail's discounted value) instead of from 0.
+    """
+
+    per_step: np.ndarray
+    """(T, E) rewards of the batch's transitions."""
+    after_termination: np.ndarray
+    """(T, E): at a terminated step, the discounted value of what follows it; ignored elsewhere."""
+
+
+RewardFn = Callable[[Batch], "np.ndarray | Rewards"]
+"""Replaces the env reward: Batch -> (T, E) rewards, a function of (obs, action, next_obs) (and
+timestep); or `Rewards`, to give terminations a value of their own."""
 
 
 class VecCollector:

@@ -18,7 +18,7 @@ import numpy as np
 import torch
 
 from bench.rl.networks import GaussianPolicy, RunningNorm, ValueNet
-from bench.rl.rollout import Batch, RewardFn, VecCollector
+from bench.rl.rollout import Batch, RewardFn, Rewards, VecCollector
 
 
 @dataclass
@@ -69,13 +69,17 @@ def gae(
     truncated: np.ndarray,
     gamma: float,
     lam: float,
+    after_termination: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Advantages and value targets, all (T, E).
 
     `next_values` is V(s') of the true next observation, so a truncated episode
-    (time limit or end of batch) bootstraps from it and a terminated one does not.
+    (time limit or end of batch) bootstraps from it. A terminated one bootstraps
+    from `after_termination` (0 if None; an absorbing tail's value, see
+    `bench.rl.absorbing`), and the advantage chain stops there either way.
     """
-    delta = rewards + gamma * next_values * (1.0 - terminated) - values
+    after = np.zeros_like(rewards) if after_termination is None else after_termination
+    delta = rewards + gamma * np.where(terminated, after, next_values) - values
     ends = terminated | truncated
     adv = np.zeros_like(rewards)
     running = np.zeros(rewards.shape[1], dtype=rewards.dtype)
@@ -201,8 +205,8 @@ class TRPO:
         self.return_norm = RunningNorm(1)
         self.discounted: np.ndarray | None = None  # running discounted return per env
 
-    def scale(self, rewards: np.ndarray, ends: np.ndarray) -> np.ndarray:
-        """Rewards divided by the running std of the discounted return (VecNormalize-style)."""
+    def reward_scale(self, rewards: np.ndarray, ends: np.ndarray) -> float:
+        """1 / running std of the discounted return (VecNormalize-style), updated with `rewards`."""
         if self.discounted is None:
             self.discounted = np.zeros(rewards.shape[1])
         seen = np.empty_like(rewards, dtype=np.float64)
@@ -211,15 +215,21 @@ class TRPO:
             seen[t] = self.discounted
             self.discounted[ends[t]] = 0.0
         self.return_norm.update(seen.reshape(-1, 1))
-        return (rewards / np.sqrt(self.return_norm.var.item() + 1e-8)).astype(np.float32)
+        return 1.0 / float(np.sqrt(self.return_norm.var.item() + 1e-8))
 
-    def update(self, batch: Batch, rewards: np.ndarray) -> dict[str, float]:
+    def update(self, batch: Batch, rewards: np.ndarray | Rewards) -> dict[str, float]:
         """Normalizer, then policy, then value: one TRPO iteration on (T, E) `rewards`."""
         cfg = self.cfg
         self.policy.norm.update(batch.flat("obs"))
+        after = None
+        if isinstance(rewards, Rewards):
+            rewards, after = rewards.per_step, rewards.after_termination
         T, E = rewards.shape
         if cfg.scale_rewards:
-            rewards = self.scale(rewards, batch.terminated | batch.truncated)
+            # Tail values are sums of rewards, so they scale with them.
+            scale = self.reward_scale(rewards, batch.terminated | batch.truncated)
+            rewards = (rewards * scale).astype(np.float32)
+            after = None if after is None else (after * scale).astype(np.float32)
         obs = torch.from_numpy(batch.flat("obs")).to(self.device)
         next_obs = torch.from_numpy(batch.flat("next_obs")).to(self.device)
         with torch.no_grad():
@@ -233,6 +243,7 @@ class TRPO:
             batch.truncated,
             cfg.gamma,
             cfg.gae_lambda,
+            after,
         )
         adv_t = torch.from_numpy(adv.reshape(-1)).to(self.device)
         adv_t = (adv_t - adv_t.mean()) / (adv_t.std() + 1e-8)
