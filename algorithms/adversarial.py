@@ -88,9 +88,10 @@ class Discriminator(nn.Module):
         self.net = mlp([in_dim, *hidden, 1])
 
     def state(self, obs: torch.Tensor, is_absorbing: torch.Tensor) -> torch.Tensor:
-        """(N, O+1): normalized observation and the absorbing flag; the absorbing state is 0, 1."""
+        """(N, O+1): normalized observation and the absorbing flag; the absorbing state is
+        (0, ..., 0, FLAG)."""
         flag = is_absorbing.float().unsqueeze(1)
-        return torch.cat([self.norm(obs) * (1.0 - flag), flag], dim=1)
+        return torch.cat([self.norm(obs) * (1.0 - flag), flag * absorbing.FLAG], dim=1)
 
     def inputs(self, x: Transitions) -> torch.Tensor:
         """The (N, F) feature rows D classifies."""
@@ -113,7 +114,8 @@ def discriminator_step(
     """`disc_steps` Adam steps of binary cross-entropy, expert labelled 1; returns the last losses."""
 
     def minibatch(x: Transitions) -> torch.Tensor:
-        idx = torch.randint(len(x), (cfg.disc_minibatch,), generator=gen)
+        # In proportion to occupancy: the absorbing loop stands for many steps.
+        idx = torch.multinomial(x.weight, cfg.disc_minibatch, replacement=True, generator=gen)
         return disc.inputs(x.map(lambda field: field[idx]))
 
     for _ in range(cfg.disc_steps):
@@ -146,6 +148,7 @@ def expert_transitions(
     terminated: tuple[bool, ...],
     actions: tuple[np.ndarray, ...] | None,
     with_absorbing: bool,
+    gamma: float,
 ) -> Transitions:
     """The demonstrations' transitions, with the absorbing tails of the episodes that terminated.
 
@@ -156,7 +159,7 @@ def expert_transitions(
     parts = [Transitions.real(o[:-1], a, o[1:]) for o, a in zip(observations, acts, strict=True)]
     finals = [o[-1] for o, t in zip(observations, terminated, strict=True) if t]
     if with_absorbing and finals:
-        parts.append(absorbing.tails(np.stack(finals), acts[0].shape[1]))
+        parts.append(absorbing.tails(np.stack(finals), acts[0].shape[1], gamma))
     return Transitions.concat(parts)
 
 
@@ -196,12 +199,15 @@ def train_adversarial(
         n_real, n_term = len(real), int(terminated.sum())
         parts = [real]
         if cfg.absorbing and n_term:
-            parts.append(absorbing.tails(batch.flat("next_obs")[terminated], task.act_dim))
+            parts.append(
+                absorbing.tails(batch.flat("next_obs")[terminated], task.act_dim, cfg.gamma)
+            )
         policy_x = to_device(Transitions.concat(parts))
         stats.update(discriminator_step(disc, opt, policy_x, expert_x, cfg, gen))
         with torch.no_grad():
             r = reward(disc(policy_x)).cpu().numpy().astype(np.float64)
         per_step = r[:n_real].reshape(batch.rewards.shape)
+        stats["reward_mean"] = float(per_step.mean())
         if not cfg.absorbing:
             return per_step
         after = np.zeros(n_real)

@@ -23,7 +23,9 @@ def state_transition(s: torch.Tensor, a: torch.Tensor, s_next: torch.Tensor) -> 
 def train(
     task: Task, demos: Demos, budget: int, seed: int, logger: Logger, config: AdversarialConfig
 ) -> Policy:
-    expert = expert_transitions(demos.observations, demos.terminated, None, config.absorbing)
+    expert = expert_transitions(
+        demos.observations, demos.terminated, None, config.absorbing, config.gamma
+    )
     return train_adversarial(
         task=task,
         expert=expert,

@@ -26,7 +26,11 @@ def train(
     config: AdversarialConfig,
 ) -> Policy:
     expert = expert_transitions(
-        demos.demos.observations, demos.demos.terminated, demos.actions, config.absorbing
+        demos.demos.observations,
+        demos.demos.terminated,
+        demos.actions,
+        config.absorbing,
+        config.gamma,
     )
     return train_adversarial(
         task=task,

@@ -90,3 +90,21 @@ def test_demo_file_from_another_env_is_rejected(tiny_expert, tmp_path):
         demos.load_demos(tmp_path / "missing.npz", env_id)
     with pytest.raises(demos.DemoError, match="asked for 26 demonstrations"):
         demos.load_demos(path, env_id, k=26)
+
+
+def test_demos_say_which_episodes_terminated(tiny_expert):
+    """A barely trained expert drops the pole (terminated) well before the 1000-step time limit."""
+    env_id, _ = tiny_expert
+    pool = demos.load_demos(demos.ensure_pool(env_id), env_id)
+    lengths = [len(o) - 1 for o in pool.observations]
+    assert pool.terminated == tuple(n < 1000 for n in lengths)
+    assert any(pool.terminated)
+    drawn = demos.load_demos(demos.ensure_pool(env_id), env_id, k=5, seed=3)
+    assert drawn.terminated == tuple(len(o) - 1 < 1000 for o in drawn.observations)
+
+
+def test_demos_without_flags_never_terminated():
+    episode = np.zeros((3, 2), np.float32)
+    assert Demos("x", (episode, episode)).terminated == (False, False)
+    with pytest.raises(ValueError, match="one terminated flag per episode"):
+        Demos("x", (episode,), (True, False))

@@ -32,6 +32,17 @@ and bootstraps from the value network's V(s') as always. Expert episodes get
 the same treatment: a demonstration that terminated contributes its tail to
 the expert's samples, one that was truncated contributes none.
 
+Weight. A learned reward trained on samples must see the absorbing state as
+often as an agent occupies it. One termination is one real step, but the
+absorbing state it leads into is occupied for the rest of the horizon: in the
+discounted occupancy measure the loop has 1/(1 - gamma) times the weight of
+the step before it (sum_{k>=1} gamma^k / gamma = gamma / (1 - gamma), rounded
+up to 1/(1 - gamma) to count the step into it). `tails` gives the loop row that
+weight; samplers draw rows in proportion to `Transitions.weight`. Drawn once
+per termination instead (DAC's replay buffer, with episodes of ~1000 steps), a
+policy that falls after 50 steps would spend 2% of D's samples on the state
+that tells it apart from the expert, and D would barely judge it.
+
 Representation. An absorbing observation is all zeros with a flag set; real
 observations carry the flag 0. A learner appends the flag after normalizing
 (`Transitions.obs_absorbing` / `next_absorbing`), so the absorbing state is
@@ -41,11 +52,18 @@ the same input whatever the running statistics.
 from __future__ import annotations
 
 import dataclasses
+import os
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+
+
+FLAG = float(os.environ.get("IFO_FLAG", "10.0"))
+"""The absorbing flag's value in a learner's input, against O(1) normalized features. A flag of
+1 would put the absorbing state within one unit of the data's centre, where a smooth
+(gradient-penalized) discriminator cannot judge it apart from the expert's states."""
 
 
 def tail_value(rewards: np.ndarray, gamma: float) -> np.ndarray:
@@ -79,6 +97,9 @@ class Transitions:
     """(N,) bool: s is the absorbing state."""
     next_absorbing: Any
     """(N,) bool: s' is the absorbing state."""
+    weight: Any
+    """(N,) float32: how many steps of occupancy the row stands for (1, or 1/(1-gamma) for the
+    absorbing loop); draw samples in proportion to it."""
 
     def __post_init__(self) -> None:
         n = len(self.obs)
@@ -111,12 +132,14 @@ class Transitions:
             np.asarray(next_obs, np.float32),
             live,
             live.copy(),
+            np.ones(len(obs), np.float32),
         )
 
 
-def tails(final_obs: np.ndarray, act_dim: int) -> Transitions:
-    """The absorbing tails of n terminated episodes: 2n rows, the n (s_T, 0, s_a) first, then
-    n copies of the loop (s_a, 0, s_a). final_obs: (n, O), each episode's terminal observation."""
+def tails(final_obs: np.ndarray, act_dim: int, gamma: float) -> Transitions:
+    """The absorbing tails of n terminated episodes: 2n rows, the n (s_T, 0, s_a) first (weight
+    1), then n copies of the loop (s_a, 0, s_a) (weight 1/(1 - gamma)).
+    final_obs: (n, O), each episode's terminal observation."""
     final_obs = np.asarray(final_obs, np.float32)
     n, obs_dim = final_obs.shape
     zeros_obs = np.zeros((n, obs_dim), np.float32)
@@ -127,6 +150,7 @@ def tails(final_obs: np.ndarray, act_dim: int) -> Transitions:
         next_obs=np.concatenate([zeros_obs, zeros_obs]),
         obs_absorbing=np.concatenate([no, yes]),
         next_absorbing=np.concatenate([yes, yes]),
+        weight=np.concatenate([np.ones(n), np.full(n, 1.0 / (1.0 - gamma))]).astype(np.float32),
     )
 
 

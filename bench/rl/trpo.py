@@ -205,13 +205,20 @@ class TRPO:
         self.return_norm = RunningNorm(1)
         self.discounted: np.ndarray | None = None  # running discounted return per env
 
-    def reward_scale(self, rewards: np.ndarray, ends: np.ndarray) -> float:
-        """1 / running std of the discounted return (VecNormalize-style), updated with `rewards`."""
+    def reward_scale(
+        self, rewards: np.ndarray, ends: np.ndarray, final: np.ndarray | None = None
+    ) -> float:
+        """1 / running std of the discounted return (VecNormalize-style), updated with `rewards`.
+
+        `final` (T, E): value added at an episode's last step (an absorbing tail's), so that
+        returns which end in one are scaled to O(1) like any other; 0 where None.
+        """
         if self.discounted is None:
             self.discounted = np.zeros(rewards.shape[1])
+        final = np.zeros_like(rewards) if final is None else final
         seen = np.empty_like(rewards, dtype=np.float64)
         for t in range(len(rewards)):
-            self.discounted = self.discounted * self.cfg.gamma + rewards[t]
+            self.discounted = self.discounted * self.cfg.gamma + rewards[t] + final[t]
             seen[t] = self.discounted
             self.discounted[ends[t]] = 0.0
         self.return_norm.update(seen.reshape(-1, 1))
@@ -226,8 +233,10 @@ class TRPO:
             rewards, after = rewards.per_step, rewards.after_termination
         T, E = rewards.shape
         if cfg.scale_rewards:
-            # Tail values are sums of rewards, so they scale with them.
-            scale = self.reward_scale(rewards, batch.terminated | batch.truncated)
+            # Tail values are sums of rewards, so they scale with them and count in the scale:
+            # a value target of -100 next to rewards of O(1) is more than the value net can fit.
+            final = None if after is None else np.where(batch.terminated, self.cfg.gamma * after, 0)
+            scale = self.reward_scale(rewards, batch.terminated | batch.truncated, final)
             rewards = (rewards * scale).astype(np.float32)
             after = None if after is None else (after * scale).astype(np.float32)
         obs = torch.from_numpy(batch.flat("obs")).to(self.device)
