@@ -8,9 +8,10 @@ Termination bias: PyBullet tasks end early when the agent falls. Valued as 0,
 a fall is worth less than any step of a reward that is always positive
 (-log(1 - D)), which then pays for survival whatever D says, and more than any
 step of one that is always negative (log D), which pays for falling fast. With
-`absorbing` (the default) a termination leads into an absorbing state that D
-judges like any other input (`bench.rl.absorbing`), and the signed reward
-log D - log(1 - D) pays neither for survival nor for falling.
+`absorbing: true` a termination leads into an absorbing state that D judges
+like any other input (`bench.rl.absorbing`), and the signed reward
+log D - log(1 - D) pays neither for survival nor for falling. With
+`absorbing: false` the learner is the classic one, bit for bit.
 """
 
 from __future__ import annotations
@@ -23,18 +24,13 @@ import torch
 import torch.nn.functional as F
 from torch import nn
 
-from algorithms.common import (
-    ImitationTRPOConfig,
-    deterministic,
-    on_task_device,
-    report_each_update,
-)
+from algorithms.common import deterministic, on_task_device, report_each_update
 from bench.registry import Logger, Task
 from bench.rl import absorbing
 from bench.rl.absorbing import Transitions
 from bench.rl.networks import DeterministicPolicy, RunningNorm, mlp
 from bench.rl.rollout import Batch, Rewards
-from bench.rl.trpo import TRPO, train
+from bench.rl.trpo import TRPO, TRPOConfig, train
 
 REWARDS: dict[str, Callable[[torch.Tensor], torch.Tensor]] = {
     "-log(1-D)": lambda logit: F.softplus(logit),  # -log(1 - sigmoid(x)) = softplus(x) > 0
@@ -44,8 +40,11 @@ REWARDS: dict[str, Callable[[torch.Tensor], torch.Tensor]] = {
 
 
 @dataclass
-class AdversarialConfig(ImitationTRPOConfig):
-    """TRPO's settings (inherited, shared with the `survival` control) plus the discriminator's."""
+class AdversarialConfig(TRPOConfig):
+    """TRPO's settings (inherited, two defaults changed) plus the discriminator's."""
+
+    init_log_std: float = -0.5
+    """Less action noise than plain TRPO: a noisy policy is told apart from the expert by its noise alone."""
 
     disc_hidden: tuple[int, ...] = (100, 100)
     """Hidden layer sizes of the discriminator MLP (tanh)."""
@@ -61,7 +60,7 @@ class AdversarialConfig(ImitationTRPOConfig):
     """Gradient norm the penalty pulls towards: 0 (zero-centred) or 1 (WGAN-GP style)."""
     reward: str = "-log(1-D)"
     """Policy reward as a function of D = P(expert): "-log(1-D)", "log D" or "log D - log(1-D)"."""
-    absorbing: bool = True
+    absorbing: bool = False
     """Terminations lead into an absorbing state that D judges (bench.rl.absorbing); off: valued 0."""
 
     def __post_init__(self) -> None:
@@ -73,23 +72,34 @@ class AdversarialConfig(ImitationTRPOConfig):
 
 
 Features = Callable[[torch.Tensor, torch.Tensor, torch.Tensor], torch.Tensor]
-"""features(s, a, s') -> (N, F) D input, from (N, O+1) observations (normalized, absorbing flag
-last), (N, A) actions and (N, O+1) next observations. GAIfO uses (s, s'), GAIL (s, a)."""
+"""features(s, a, s') -> (N, F) D input, from normalized observations (N, O+1 with the absorbing
+flag last, or N, O without absorbing states), (N, A) actions and next observations like s.
+GAIfO uses (s, s'), GAIL (s, a)."""
 
 
 class Discriminator(nn.Module):
     """Logit of P(expert | transition); observations normalized with the policy's statistics."""
 
     def __init__(
-        self, norm: RunningNorm, features: Features, in_dim: int, hidden: tuple[int, ...]
+        self,
+        norm: RunningNorm,
+        features: Features,
+        obs_dim: int,
+        act_dim: int,
+        hidden: tuple[int, ...],
+        with_absorbing: bool,
     ) -> None:
         super().__init__()
-        self.norm, self.features = norm, features
+        self.norm, self.features, self.with_absorbing = norm, features, with_absorbing
+        state = torch.zeros(1, obs_dim + with_absorbing)
+        in_dim = features(state, torch.zeros(1, act_dim), state).shape[1]
         self.net = mlp([in_dim, *hidden, 1])
 
     def state(self, obs: torch.Tensor, is_absorbing: torch.Tensor) -> torch.Tensor:
         """(N, O+1): normalized observation and the absorbing flag; the absorbing state is
-        (0, ..., 0, FLAG)."""
+        (0, ..., 0, FLAG). (N, O), the observation alone, without absorbing states."""
+        if not self.with_absorbing:
+            return self.norm(obs)
         flag = is_absorbing.float().unsqueeze(1)
         return torch.cat([self.norm(obs) * (1.0 - flag), flag * absorbing.FLAG], dim=1)
 
@@ -114,8 +124,10 @@ def discriminator_step(
     """`disc_steps` Adam steps of binary cross-entropy, expert labelled 1; returns the last losses."""
 
     def minibatch(x: Transitions) -> torch.Tensor:
-        # In proportion to occupancy: the absorbing loop stands for many steps.
-        idx = torch.multinomial(x.weight, cfg.disc_minibatch, replacement=True, generator=gen)
+        if cfg.absorbing:  # in proportion to occupancy: the absorbing loop stands for many steps
+            idx = torch.multinomial(x.weight, cfg.disc_minibatch, replacement=True, generator=gen)
+        else:
+            idx = torch.randint(len(x), (cfg.disc_minibatch,), generator=gen)
         return disc.inputs(x.map(lambda field: field[idx]))
 
     for _ in range(cfg.disc_steps):
@@ -185,9 +197,9 @@ def train_adversarial(
     device = learner.device
     to_device = lambda x: x.map(lambda a: torch.as_tensor(a, device=device))  # noqa: E731
     expert_x = to_device(expert)
-    state, action = torch.zeros(1, task.obs_dim + 1), torch.zeros(1, task.act_dim)
-    in_dim = features(state, action, state).shape[1]
-    disc = Discriminator(learner.policy.norm, features, in_dim, cfg.disc_hidden).to(device)
+    disc = Discriminator(
+        learner.policy.norm, features, task.obs_dim, task.act_dim, cfg.disc_hidden, cfg.absorbing
+    ).to(device)
     opt = torch.optim.Adam(disc.net.parameters(), lr=cfg.disc_lr)
     gen = torch.Generator().manual_seed(seed + 2)
     reward = REWARDS[cfg.reward]
@@ -205,7 +217,7 @@ def train_adversarial(
         policy_x = to_device(Transitions.concat(parts))
         stats.update(discriminator_step(disc, opt, policy_x, expert_x, cfg, gen))
         with torch.no_grad():
-            r = reward(disc(policy_x)).cpu().numpy().astype(np.float64)
+            r = reward(disc(policy_x)).cpu().numpy()
         per_step = r[:n_real].reshape(batch.rewards.shape)
         stats["reward_mean"] = float(per_step.mean())
         if not cfg.absorbing:

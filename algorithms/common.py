@@ -4,21 +4,11 @@ evaluates, and what they report after each update."""
 from __future__ import annotations
 
 import dataclasses
-from dataclasses import dataclass
 
 from bench.registry import Logger, Task
 from bench.rl.networks import DeterministicPolicy
 from bench.rl.rollout import Batch
 from bench.rl.trpo import TRPO, Callback, TRPOConfig
-
-
-@dataclass
-class ImitationTRPOConfig(TRPOConfig):
-    """TRPO as the adversarial imitators run it (their config inherits this). The `survival`
-    control runs exactly these settings, so a default changed here changes for all three."""
-
-    init_log_std: float = -0.5
-    """Less action noise than plain TRPO: a noisy policy is told apart from the expert by its noise alone."""
 
 
 def on_task_device(config: TRPOConfig, task: Task) -> TRPOConfig:

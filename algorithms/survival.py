@@ -1,29 +1,24 @@
 """Control: TRPO on +1 per step, no demonstrations. On tasks that end early this is what a
-positive imitation reward earns for staying alive alone. It runs exactly the TRPO settings of
-GAIfO and GAIL (`ImitationTRPOConfig`), so it stays matched to what it controls."""
+positive imitation reward earns for staying alive alone."""
 
 from __future__ import annotations
 
 import numpy as np
 
-from algorithms.common import (
-    ImitationTRPOConfig,
-    deterministic,
-    on_task_device,
-    report_each_update,
-)
+from algorithms.common import deterministic, on_task_device, report_each_update
 from bench.registry import Logger, Policy, Task, register
+from bench.rl.trpo import TRPOConfig
 from bench.rl.trpo import train as trpo_train
 
 
 @register(
     "survival",
-    config=ImitationTRPOConfig,
+    config=TRPOConfig,
     inputs="none",
     description="control: TRPO on +1 per step, no demos",
 )
 def train(
-    task: Task, demos: None, budget: int, seed: int, logger: Logger, config: ImitationTRPOConfig
+    task: Task, demos: None, budget: int, seed: int, logger: Logger, config: TRPOConfig
 ) -> Policy:
     learner = trpo_train(
         task.make_env,

@@ -23,7 +23,15 @@ def _experts_train(args: argparse.Namespace) -> int:
         cfg = TRPOConfig(**overrides)
     except TypeError as err:
         raise EnvError(f"--hyperparams: {err}") from None
-    command = shlex.join(["bench", "experts", "train", *sys.argv[3:]])
+    # Where it was saved is not how it was trained: leave --out out of the recorded command.
+    argv, kept = sys.argv[3:], []
+    while argv:
+        arg = argv.pop(0)
+        if arg == "--out":
+            argv = argv[1:]
+        elif not arg.startswith("--out="):
+            kept.append(arg)
+    command = shlex.join(["bench", "experts", "train", *kept])
     meta = train_expert(args.env_id, args.steps, args.seed, cfg, out_dir=args.out, command=command)
     print(
         f"{meta['env_id']}: return {meta['return_mean']:.1f} +- {meta['return_std']:.1f} "

@@ -88,7 +88,9 @@ def test_discriminator_learns_that_falling_is_not_expert_like(tmp_path, monkeypa
     from bench.types import TrialSpec
 
     monkeypatch.setattr(paths, "CACHE_DIR", tmp_path / "cache")
-    spec = TrialSpec("t", pendulum, "gaifo", 1, 0, 8 * 2048, 2, {"reward": "log D - log(1-D)"})
+    spec = TrialSpec(
+        "t", pendulum, "gaifo", 1, 0, 8 * 2048, 2, {"absorbing": True, "reward": "log D - log(1-D)"}
+    )
     pool = demos.ensure_pool(pendulum)
     result = run_trial(spec, demos.load_demos(pool, pendulum, 1, 0))
     assert result.status == "ok", result.traceback

@@ -52,15 +52,13 @@ the same input whatever the running statistics.
 from __future__ import annotations
 
 import dataclasses
-import os
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
-
-FLAG = float(os.environ.get("IFO_FLAG", "10.0"))
+FLAG = 10.0
 """The absorbing flag's value in a learner's input, against O(1) normalized features. A flag of
 1 would put the absorbing state within one unit of the data's centre, where a smooth
 (gradient-penalized) discriminator cannot judge it apart from the expert's states."""

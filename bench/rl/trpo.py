@@ -78,8 +78,9 @@ def gae(
     from `after_termination` (0 if None; an absorbing tail's value, see
     `bench.rl.absorbing`), and the advantage chain stops there either way.
     """
-    after = np.zeros_like(rewards) if after_termination is None else after_termination
-    delta = rewards + gamma * np.where(terminated, after, next_values) - values
+    delta = rewards + gamma * next_values * (1.0 - terminated) - values
+    if after_termination is not None:
+        delta = delta + gamma * np.where(terminated, after_termination, 0.0)
     ends = terminated | truncated
     adv = np.zeros_like(rewards)
     running = np.zeros(rewards.shape[1], dtype=rewards.dtype)
@@ -207,22 +208,23 @@ class TRPO:
 
     def reward_scale(
         self, rewards: np.ndarray, ends: np.ndarray, final: np.ndarray | None = None
-    ) -> float:
-        """1 / running std of the discounted return (VecNormalize-style), updated with `rewards`.
+    ) -> np.floating:
+        """Running std of the discounted return (VecNormalize-style), updated with `rewards`.
 
         `final` (T, E): value added at an episode's last step (an absorbing tail's), so that
         returns which end in one are scaled to O(1) like any other; 0 where None.
         """
         if self.discounted is None:
             self.discounted = np.zeros(rewards.shape[1])
-        final = np.zeros_like(rewards) if final is None else final
         seen = np.empty_like(rewards, dtype=np.float64)
         for t in range(len(rewards)):
-            self.discounted = self.discounted * self.cfg.gamma + rewards[t] + final[t]
+            self.discounted = self.discounted * self.cfg.gamma + rewards[t]
+            if final is not None:
+                self.discounted += final[t]
             seen[t] = self.discounted
             self.discounted[ends[t]] = 0.0
         self.return_norm.update(seen.reshape(-1, 1))
-        return 1.0 / float(np.sqrt(self.return_norm.var.item() + 1e-8))
+        return np.sqrt(self.return_norm.var.item() + 1e-8)
 
     def update(self, batch: Batch, rewards: np.ndarray | Rewards) -> dict[str, float]:
         """Normalizer, then policy, then value: one TRPO iteration on (T, E) `rewards`."""
@@ -236,9 +238,9 @@ class TRPO:
             # Tail values are sums of rewards, so they scale with them and count in the scale:
             # a value target of -100 next to rewards of O(1) is more than the value net can fit.
             final = None if after is None else np.where(batch.terminated, self.cfg.gamma * after, 0)
-            scale = self.reward_scale(rewards, batch.terminated | batch.truncated, final)
-            rewards = (rewards * scale).astype(np.float32)
-            after = None if after is None else (after * scale).astype(np.float32)
+            std = self.reward_scale(rewards, batch.terminated | batch.truncated, final)
+            rewards = (rewards / std).astype(np.float32)
+            after = None if after is None else (after / std).astype(np.float32)
         obs = torch.from_numpy(batch.flat("obs")).to(self.device)
         next_obs = torch.from_numpy(batch.flat("next_obs")).to(self.device)
         with torch.no_grad():
