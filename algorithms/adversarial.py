@@ -31,6 +31,7 @@ from bench.rl.absorbing import Transitions
 from bench.rl.networks import DeterministicPolicy, RunningNorm, mlp
 from bench.rl.rollout import Batch, Rewards
 from bench.rl.trpo import TRPO, TRPOConfig, train
+from bench.types import Demos
 
 REWARDS: dict[str, Callable[[torch.Tensor], torch.Tensor]] = {
     "-log(1-D)": lambda logit: F.softplus(logit),  # -log(1 - sigmoid(x)) = softplus(x) > 0
@@ -184,18 +185,25 @@ def batch_transitions(batch: Batch, task: Task) -> Transitions:
 def train_adversarial(
     *,
     task: Task,
-    expert: Transitions,
+    demos: Demos,
+    expert_actions: tuple[np.ndarray, ...] | None = None,
     features: Features,
     budget: int,
     seed: int,
     logger: Logger,
     cfg: AdversarialConfig,
 ) -> DeterministicPolicy:
-    """The shared loop: D on `features` of expert vs policy transitions, TRPO on D's reward."""
+    """The shared loop: D on `features` of expert vs policy transitions, TRPO on D's reward.
+
+    `expert_actions`: (T_i, A) per demonstration, for a variant whose features use them (GAIL).
+    """
     cfg = on_task_device(cfg, task)
     learner = TRPO(task.obs_dim, task.act_dim, cfg, seed)
     device = learner.device
     to_device = lambda x: x.map(lambda a: torch.as_tensor(a, device=device))  # noqa: E731
+    expert = expert_transitions(
+        demos.observations, demos.terminated, expert_actions, cfg.absorbing, cfg.gamma
+    )
     expert_x = to_device(expert)
     disc = Discriminator(
         learner.policy.norm, features, task.obs_dim, task.act_dim, cfg.disc_hidden, cfg.absorbing

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import torch
 
-from algorithms.adversarial import AdversarialConfig, expert_transitions, train_adversarial
+from algorithms.adversarial import AdversarialConfig, train_adversarial
 from bench.registry import Logger, Policy, Task, register
 from bench.types import Demos
 
@@ -23,12 +23,9 @@ def state_transition(s: torch.Tensor, a: torch.Tensor, s_next: torch.Tensor) -> 
 def train(
     task: Task, demos: Demos, budget: int, seed: int, logger: Logger, config: AdversarialConfig
 ) -> Policy:
-    expert = expert_transitions(
-        demos.observations, demos.terminated, None, config.absorbing, config.gamma
-    )
     return train_adversarial(
         task=task,
-        expert=expert,
+        demos=demos,
         features=state_transition,
         budget=budget,
         seed=seed,

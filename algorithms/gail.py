@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import torch
 
-from algorithms.adversarial import AdversarialConfig, expert_transitions, train_adversarial
+from algorithms.adversarial import AdversarialConfig, train_adversarial
 from bench.registry import Logger, Policy, Task, register
 from bench.types import ActionDemos
 
@@ -25,16 +25,10 @@ def train(
     logger: Logger,
     config: AdversarialConfig,
 ) -> Policy:
-    expert = expert_transitions(
-        demos.demos.observations,
-        demos.demos.terminated,
-        demos.actions,
-        config.absorbing,
-        config.gamma,
-    )
     return train_adversarial(
         task=task,
-        expert=expert,
+        demos=demos.demos,
+        expert_actions=demos.actions,
         features=state_action,
         budget=budget,
         seed=seed,

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import shlex
 import sys
@@ -18,21 +19,17 @@ def _experts_train(args: argparse.Namespace) -> int:
     from bench.rl.trpo import TRPOConfig
 
     envs.check_env_id(args.env_id)
-    overrides = {"n_envs": args.n_envs, "steps_per_env": args.steps_per_env, **args.hyperparams}
-    try:
-        cfg = TRPOConfig(**overrides)
-    except TypeError as err:
-        raise EnvError(f"--hyperparams: {err}") from None
-    # Where it was saved is not how it was trained: leave --out out of the recorded command.
-    argv, kept = sys.argv[3:], []
-    while argv:
-        arg = argv.pop(0)
-        if arg == "--out":
-            argv = argv[1:]
-        elif not arg.startswith("--out="):
-            kept.append(arg)
-    command = shlex.join(["bench", "experts", "train", *kept])
-    meta = train_expert(args.env_id, args.steps, args.seed, cfg, out_dir=args.out, command=command)
+    batch = {"n_envs": args.n_envs, "steps_per_env": args.steps_per_env}
+    cfg = TRPOConfig(**{**batch, **args.hyperparams})  # --hyperparams has the last word
+    # Rebuilt from the parsed arguments, without --out: where it was saved is not how it was trained.
+    command = ["bench", "experts", "train", args.env_id, "--steps", str(args.steps)]
+    command += ["--seed", str(args.seed), "--n-envs", str(args.n_envs)]
+    command += ["--steps-per-env", str(args.steps_per_env)]
+    if args.hyperparams:
+        command += ["--hyperparams", json.dumps(args.hyperparams)]
+    meta = train_expert(
+        args.env_id, args.steps, args.seed, cfg, out_dir=args.out, command=shlex.join(command)
+    )
     print(
         f"{meta['env_id']}: return {meta['return_mean']:.1f} +- {meta['return_std']:.1f} "
         f"over {meta['eval_episodes']} episodes ({meta['train_steps']} steps, {meta['wall_time_s']:.0f} s)"
@@ -40,14 +37,22 @@ def _experts_train(args: argparse.Namespace) -> int:
     return 0
 
 
-def _json_object(text: str) -> dict:
-    """argparse type: a JSON object, or an argparse error naming the problem."""
+def _trpo_overrides(text: str) -> dict:
+    """argparse type: a JSON object of TRPOConfig fields, or an argparse error naming the problem."""
+    from bench.rl.trpo import TRPOConfig
+
     try:
         value = json.loads(text)
     except json.JSONDecodeError as err:
         raise argparse.ArgumentTypeError(f"not JSON: {err}") from None
     if not isinstance(value, dict):
-        raise argparse.ArgumentTypeError("must be a JSON object, e.g. '{\"n_envs\": 16}'")
+        raise argparse.ArgumentTypeError("must be a JSON object, e.g. '{\"hidden\": [128, 128]}'")
+    known = {f.name for f in dataclasses.fields(TRPOConfig)}
+    unknown = sorted(set(value) - known)
+    if unknown:
+        raise argparse.ArgumentTypeError(
+            f"TRPOConfig has no field {', '.join(map(repr, unknown))} (known: {', '.join(sorted(known))})"
+        )
     return value
 
 
@@ -235,7 +240,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     tr.add_argument(
         "--hyperparams",
-        type=_json_object,
+        type=_trpo_overrides,
         default={},
         help='TRPOConfig overrides as JSON, e.g. \'{"hidden": [128, 128], "init_log_std": -1.0}\'',
     )

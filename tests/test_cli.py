@@ -110,3 +110,15 @@ def test_help_of_every_command():
     ):
         out = bench(*args)
         assert out.returncode == 0 and "usage: bench" in out.stdout
+
+
+@pytest.mark.parametrize(
+    ("hyperparams", "message"),
+    [('{"hiden": [128]}', "TRPOConfig has no field 'hiden'"), ("[1]", "must be a JSON object")],
+)
+def test_expert_hyperparams_are_checked_before_training(hyperparams, message, tmp_path):
+    out = bench(
+        "experts", "train", PENDULUM, "--hyperparams", hyperparams, "--out", str(tmp_path / "x")
+    )
+    assert out.returncode == 2 and message in out.stderr
+    assert not (tmp_path / "x").exists()

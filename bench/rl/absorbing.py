@@ -35,9 +35,8 @@ the expert's samples, one that was truncated contributes none.
 Weight. A learned reward trained on samples must see the absorbing state as
 often as an agent occupies it. One termination is one real step, but the
 absorbing state it leads into is occupied for the rest of the horizon: in the
-discounted occupancy measure the loop has 1/(1 - gamma) times the weight of
-the step before it (sum_{k>=1} gamma^k / gamma = gamma / (1 - gamma), rounded
-up to 1/(1 - gamma) to count the step into it). `tails` gives the loop row that
+discounted occupancy measure, relative to the step into it, the loop weighs
+sum_{k>=1} gamma^k = gamma / (1 - gamma), rounded up to 1/(1 - gamma). `tails` gives the loop row that
 weight; samplers draw rows in proportion to `Transitions.weight`. Drawn once
 per termination instead (DAC's replay buffer, with episodes of ~1000 steps), a
 policy that falls after 50 steps would spend 2% of D's samples on the state
@@ -117,8 +116,7 @@ class Transitions:
     @staticmethod
     def concat(parts: list[Transitions]) -> Transitions:
         """Rows of `parts` one after another (numpy)."""
-        names = [f.name for f in dataclasses.fields(Transitions)]
-        return Transitions(*(np.concatenate([getattr(p, n) for p in parts]) for n in names))
+        return Transitions(*map(np.concatenate, zip(*(p.fields() for p in parts), strict=True)))
 
     @staticmethod
     def real(obs: np.ndarray, actions: np.ndarray, next_obs: np.ndarray) -> Transitions:
