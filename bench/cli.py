@@ -9,8 +9,12 @@ import shlex
 import sys
 from collections.abc import Callable
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from bench.envs import EnvError
+
+if TYPE_CHECKING:
+    import pandas as pd
 
 
 def _experts_train(args: argparse.Namespace) -> int:
@@ -136,6 +140,44 @@ def _report(args: argparse.Namespace) -> int:
     return 0
 
 
+def _compare(args: argparse.Namespace) -> int:
+    from bench import report, stats
+
+    run, ref = (_one_suite(args.run), _one_suite(args.reference))
+    comparison = stats.compare(*_normalized_alike(run, ref), reps=args.reps)
+    print(report.compare_table(comparison, str(args.run), str(args.reference)))
+    return 0
+
+
+def _one_suite(folder: str) -> pd.DataFrame:
+    """The trial records of the one suite in `folder`."""
+    from bench import store
+
+    dirs = store.suite_dirs(folder)
+    if len(dirs) > 1:
+        raise FileNotFoundError(
+            f"{folder} holds {len(dirs)} suites' records ({', '.join(map(str, dirs))}); name one"
+        )
+    return store.load(dirs[0])
+
+
+def _normalized_alike(run: pd.DataFrame, ref: pd.DataFrame) -> tuple[pd.DataFrame, pd.DataFrame]:
+    """Both frames on their shared envs, normalized with the reference's random and expert
+    returns (the run's where the reference lacks them), so both sides share one scale."""
+    from bench import normalize
+    from bench.stats import ComparisonError
+
+    envs = sorted(set(run["env_id"]) & set(ref["env_id"]))
+    if not envs:
+        raise ComparisonError("the two folders share no env")
+    run, ref = run[run["env_id"].isin(envs)], ref[ref["env_id"].isin(envs)]
+    for frame in (run, ref):
+        normalize.check_one_record_per_seed(frame)
+    refs = normalize.reference_returns(ref).set_index("env_id")
+    refs = refs.combine_first(normalize.reference_returns(run).set_index("env_id")).reset_index()
+    return normalize.normalize(run, refs), normalize.normalize(ref, refs)
+
+
 def _list(args: argparse.Namespace) -> int:
     from bench import registry
 
@@ -223,6 +265,19 @@ def build_parser() -> argparse.ArgumentParser:
     )
     rep.set_defaults(func=_report)
 
+    cmp = sub.add_parser(
+        "compare",
+        help="compare two results folders' IQMs per env, algorithm and demo count",
+        description="Per env, algorithm and demo count in both folders: each folder's IQM over"
+        " seeds with a 95%% CI, and whether they differ (the CI of the difference excludes 0).",
+    )
+    cmp.add_argument("run", help="a suite's results folder, e.g. runs/quick")
+    cmp.add_argument("reference", help="the folder to compare against, e.g. results/quick")
+    cmp.add_argument(
+        "--reps", type=int, default=2000, metavar="N", help="bootstrap resamples (default 2000)"
+    )
+    cmp.set_defaults(func=_compare)
+
     lst = sub.add_parser("list", help="registered algorithms and available experts")
     lst.set_defaults(func=_list)
 
@@ -263,6 +318,7 @@ def _user_errors() -> tuple[type[Exception], ...]:
     from bench.experts import ExpertError
     from bench.normalize import NormalizationError
     from bench.registry import RegistryError
+    from bench.stats import ComparisonError
     from bench.suite import SuiteError
 
     return (
@@ -272,6 +328,7 @@ def _user_errors() -> tuple[type[Exception], ...]:
         ExpertError,
         DemoError,
         NormalizationError,
+        ComparisonError,
         FileNotFoundError,
     )
 

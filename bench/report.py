@@ -22,7 +22,6 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
-import scipy.stats
 import seaborn as sns
 from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
@@ -200,11 +199,8 @@ def iqm_curves(curves: pd.DataFrame, reps: int = 2000, seed: int = 0) -> pd.Data
 
 
 def _iqm_per_column(scores: np.ndarray) -> np.ndarray:
-    """rliable's aggregate_iqm (a 25% trimmed mean) of each column of a (runs x cells) array.
-
-    Vectorized over columns: one bootstrap of every cell at once, instead of one per cell.
-    """
-    return scipy.stats.trim_mean(scores, proportiontocut=0.25, axis=0)
+    """IQM of each column of a (runs x cells) array: one bootstrap of every cell at once."""
+    return stats.iqm(scores, axis=0)
 
 
 def _on_common_steps(table: pd.DataFrame) -> pd.DataFrame:
@@ -296,6 +292,46 @@ def improvement_table(improvement: pd.DataFrame) -> str:
         lines.append(
             _row([plot.algorithm_label(other), _interval(r["estimate"], r["lo"], r["hi"])])
         )
+    return "\n".join(lines) + "\n"
+
+
+def compare_table(comparison: pd.DataFrame, run: str, reference: str) -> str:
+    """Markdown: per env, algorithm and demo count, IQM [95% CI] of the run and the reference,
+    their difference and the verdict (stats.compare); then how many rows agree."""
+    header = ["env", "algorithm", "demos", f"run ({run})", f"reference ({reference})"]
+    header += ["run - ref [95% CI]", "verdict"]
+    lines = [_row(header), "|" + "---|" * len(header)]
+    envs, algorithms = plot.env_order(comparison["env_id"]), _in_order(comparison["algorithm"])
+    ordered = comparison.sort_values(
+        ["env_id", "algorithm", "n_demos"],
+        key=lambda col: (
+            col.map((envs if col.name == "env_id" else algorithms).index)
+            if col.name != "n_demos"
+            else col
+        ),
+    )
+    for _, r in ordered.iterrows():
+        lines.append(
+            _row(
+                [
+                    plot.env_label(r["env_id"]),
+                    plot.algorithm_label(r["algorithm"]),
+                    r["n_demos"],
+                    _interval(r["run_iqm"], r["run_lo"], r["run_hi"]) + f" ({r['run_seeds']})",
+                    _interval(r["ref_iqm"], r["ref_lo"], r["ref_hi"]) + f" ({r['ref_seeds']})",
+                    _interval(r["diff"], r["diff_lo"], r["diff_hi"]),
+                    "**differs**" if r["verdict"] == "differs" else "agrees",
+                ]
+            )
+        )
+    agree = int((comparison["verdict"] == "agrees").sum())
+    lines += [
+        "",
+        f"{agree} of {len(comparison)} rows agree. IQM of normalized returns over seeds (seed"
+        " count in parentheses), both"
+        " normalized with the reference's random and expert returns; a row differs when the 95%"
+        " bootstrap CI of the IQM difference excludes 0.",
+    ]
     return "\n".join(lines) + "\n"
 
 

@@ -16,6 +16,7 @@ from types import ModuleType
 
 import numpy as np
 import pandas as pd
+import scipy.stats
 
 from bench.normalize import EXPERT, RANDOM
 
@@ -209,3 +210,74 @@ def _seeded(seed: int) -> Iterator[None]:
         yield
     finally:
         np.random.set_state(saved)
+
+
+class ComparisonError(ValueError):
+    """Two results folders that cannot be compared; the message is one line."""
+
+
+COMPARE_KEYS = ["env_id", "algorithm", "n_demos"]
+COMPARE_COLUMNS = [
+    *COMPARE_KEYS,
+    *("run_seeds", "run_iqm", "run_lo", "run_hi"),
+    *("ref_seeds", "ref_iqm", "ref_lo", "ref_hi"),
+    *("diff", "diff_lo", "diff_hi", "verdict"),
+]
+
+
+def iqm(scores: np.ndarray, axis: int = -1) -> np.ndarray:
+    """Interquartile mean (rliable's aggregate_iqm): the mean of the middle 50% of scores."""
+    return scipy.stats.trim_mean(scores, proportiontocut=0.25, axis=axis)
+
+
+def iqm_difference(
+    run: np.ndarray, ref: np.ndarray, reps: int = 2000, seed: int = 0
+) -> dict[str, float]:
+    """IQMs of two independent samples of scores with 95% percentile-bootstrap CIs, and of
+    their difference run - ref (each sample resampled on its own, `reps` times)."""
+    rng = np.random.default_rng(seed)
+    run, ref = np.asarray(run, dtype=float), np.asarray(ref, dtype=float)
+    boot_run = iqm(run[rng.integers(len(run), size=(reps, len(run)))])
+    boot_ref = iqm(ref[rng.integers(len(ref), size=(reps, len(ref)))])
+    ci = lambda boot: np.percentile(boot, [2.5, 97.5])  # noqa: E731
+    (run_lo, run_hi), (ref_lo, ref_hi) = ci(boot_run), ci(boot_ref)
+    diff_lo, diff_hi = ci(boot_run - boot_ref)
+    return {
+        "run_iqm": float(iqm(run)),
+        "run_lo": float(run_lo),
+        "run_hi": float(run_hi),
+        "ref_iqm": float(iqm(ref)),
+        "ref_lo": float(ref_lo),
+        "ref_hi": float(ref_hi),
+        "diff": float(iqm(run) - iqm(ref)),
+        "diff_lo": float(diff_lo),
+        "diff_hi": float(diff_hi),
+    }
+
+
+def compare(run: pd.DataFrame, ref: pd.DataFrame, reps: int = 2000, seed: int = 0) -> pd.DataFrame:
+    """Per env, algorithm and demo count present in both normalized frames: each one's IQM over
+    seeds with a 95% CI, the difference's CI, and a verdict: "differs" when that CI excludes 0,
+    else "agrees". Columns: COMPARE_COLUMNS. Raises ComparisonError when no cell is in both."""
+    run_cells = {k: g["normalized"].dropna().to_numpy() for k, g in run.groupby(COMPARE_KEYS)}
+    ref_cells = {k: g["normalized"].dropna().to_numpy() for k, g in ref.groupby(COMPARE_KEYS)}
+    shared = [
+        k for k in sorted(run_cells) if k in ref_cells and len(run_cells[k]) and len(ref_cells[k])
+    ]
+    if not shared:
+        raise ComparisonError("the two folders share no (env, algorithm, demo count) with scores")
+    rows = []
+    for i, key in enumerate(shared):
+        a, b = run_cells[key], ref_cells[key]
+        d = iqm_difference(a, b, reps, seed + i)
+        verdict = "differs" if d["diff_lo"] > 0 or d["diff_hi"] < 0 else "agrees"
+        rows.append(
+            {
+                **dict(zip(COMPARE_KEYS, key, strict=True)),
+                "run_seeds": len(a),
+                "ref_seeds": len(b),
+                **d,
+                "verdict": verdict,
+            }
+        )
+    return pd.DataFrame(rows, columns=COMPARE_COLUMNS)

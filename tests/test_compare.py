@@ -1,0 +1,87 @@
+"""`bench compare RUN REFERENCE`: per-row IQMs with CIs and a verdict, on real records."""
+
+import dataclasses
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from bench import stats, store
+
+REFERENCE = Path(__file__).parents[1] / "results" / "quick"
+
+
+def bench(*args: str) -> subprocess.CompletedProcess:
+    return subprocess.run(
+        [sys.executable, "-m", "bench.cli", *args], capture_output=True, text=True
+    )
+
+
+def verdicts(stdout: str) -> dict[tuple[str, str], str]:
+    """{(algorithm, demos): verdict} from the printed markdown table."""
+    rows = [line.split("|")[1:-1] for line in stdout.splitlines() if line.startswith("| Inv")]
+    return {(r[1].strip(), r[2].strip()): r[-1].strip(" *") for r in rows}
+
+
+def rewrite(folder: Path, change) -> None:
+    """Replace every record of `folder` by change(record) (or drop it if that returns None)."""
+    for path in sorted(store.trials_dir(folder).glob("*.json")):
+        result = change(store.read(path))
+        path.unlink()
+        if result is not None:
+            store.write(folder, result)
+
+
+def test_iqm_difference_of_identical_and_shifted_samples():
+    scores = np.array([0.2, 0.5, 0.9, 1.0, 1.0, 0.7, 0.95, 1.0])
+    same = stats.iqm_difference(scores, scores.copy(), reps=500)
+    assert same["diff"] == 0.0 and same["diff_lo"] <= 0.0 <= same["diff_hi"]
+    shifted = stats.iqm_difference(scores - 0.5, scores, reps=500)
+    assert shifted["diff"] == pytest.approx(-0.5) and shifted["diff_hi"] < 0
+
+
+def test_identical_folders_agree(tmp_path):
+    run = tmp_path / "run"
+    shutil.copytree(REFERENCE, run)
+    out = bench("compare", str(run), str(REFERENCE), "--reps", "500")
+    assert out.returncode == 0, out.stderr
+    found = verdicts(out.stdout)
+    assert ("GAIfO", "5") in found and set(found.values()) == {"agrees"}
+
+
+def test_gaifo_at_random_level_differs(tmp_path):
+    run = tmp_path / "run"
+    shutil.copytree(REFERENCE, run)
+    random_returns = store.load(run).query("algorithm == 'random'")["return"].to_numpy()
+
+    def to_random_level(result):
+        if result.spec.algorithm != "gaifo":
+            return result
+        level = float(random_returns[result.spec.seed % len(random_returns)])
+        return dataclasses.replace(result, returns=[level] * len(result.returns))
+
+    rewrite(run, to_random_level)
+    out = bench("compare", str(run), str(REFERENCE), "--reps", "500")
+    assert out.returncode == 0, out.stderr
+    found = verdicts(out.stdout)
+    assert found[("GAIfO", "1")] == found[("GAIfO", "5")] == "differs"
+    assert {v for (algo, _), v in found.items() if algo != "GAIfO"} == {"agrees"}
+
+
+def test_folders_without_overlap_give_one_line(tmp_path):
+    run = tmp_path / "run"
+    shutil.copytree(REFERENCE, run)
+    rewrite(
+        run,
+        lambda r: dataclasses.replace(
+            r, spec=dataclasses.replace(r.spec, env_id="HopperBulletEnv-v0")
+        ),
+    )
+    before = sorted(p.read_bytes() for p in store.trials_dir(run).iterdir())
+    out = bench("compare", str(run), str(REFERENCE))
+    assert out.returncode == 2
+    assert out.stderr.count("\n") == 1 and "share no env" in out.stderr
+    assert sorted(p.read_bytes() for p in store.trials_dir(run).iterdir()) == before
