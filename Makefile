@@ -1,10 +1,14 @@
 # Two commands do everything on a fresh machine:
-#   make run    install, then run suites/quick.yaml end to end and draw its figure
+#   make run    install, then train every trial of suites/quick.yaml into runs/quick/ (not
+#               committed), draw its figure and compare it with the committed results/quick/
 #   make test   install, then lint and run the test suite
 PYTHON ?= python3
 VENV ?= .venv
 BIN := $(VENV)/bin
 SUITE ?= suites/quick.yaml
+NAME := $(basename $(notdir $(SUITE)))
+RUN ?= runs/$(NAME)
+REFERENCE ?= results/$(NAME)
 
 .PHONY: install run test bench clean
 
@@ -19,8 +23,9 @@ $(BIN)/.installed: pyproject.toml
 install: $(BIN)/.installed
 
 run: install
-	$(BIN)/bench run $(SUITE)
-	$(BIN)/bench plot results/$(basename $(notdir $(SUITE)))
+	$(BIN)/bench run $(SUITE) --results $(RUN)
+	$(BIN)/bench plot $(RUN)
+	$(BIN)/bench compare $(RUN) $(REFERENCE)
 
 test: install
 	$(BIN)/ruff check .
