@@ -7,11 +7,11 @@ then take one TRPO step on the reward D gives the batch.
 Termination bias: PyBullet tasks end early when the agent falls. Valued as 0,
 a fall is worth less than any step of a reward that is always positive
 (-log(1 - D)), which then pays for survival whatever D says, and more than any
-step of one that is always negative (log D), which pays for falling fast. With
-`absorbing: true` a termination leads into an absorbing state that D judges
-like any other input (`bench.rl.absorbing`), and the signed reward
+step of one that is always negative (log D), which pays for falling fast. By
+default (`absorbing: true`) a termination leads into an absorbing state that D
+judges like any other input (`bench.rl.absorbing`), and the signed reward
 log D - log(1 - D) pays neither for survival nor for falling. With
-`absorbing: false` the learner is the classic one, bit for bit.
+`absorbing: false, reward: "-log(1-D)"` the learner is the paper's, bit for bit.
 """
 
 from __future__ import annotations
@@ -24,13 +24,18 @@ import torch
 import torch.nn.functional as F
 from torch import nn
 
-from algorithms.common import deterministic, on_task_device, report_each_update
+from algorithms.common import (
+    ImitationTRPOConfig,
+    deterministic,
+    on_task_device,
+    report_each_update,
+)
 from bench.registry import Logger, Task
 from bench.rl import absorbing
 from bench.rl.absorbing import Transitions
 from bench.rl.networks import DeterministicPolicy, RunningNorm, mlp
 from bench.rl.rollout import Batch, Rewards
-from bench.rl.trpo import TRPO, TRPOConfig, train
+from bench.rl.trpo import TRPO, train
 from bench.types import Demos
 
 REWARDS: dict[str, Callable[[torch.Tensor], torch.Tensor]] = {
@@ -41,11 +46,8 @@ REWARDS: dict[str, Callable[[torch.Tensor], torch.Tensor]] = {
 
 
 @dataclass
-class AdversarialConfig(TRPOConfig):
-    """TRPO's settings (inherited, two defaults changed) plus the discriminator's."""
-
-    init_log_std: float = -0.5
-    """Less action noise than plain TRPO: a noisy policy is told apart from the expert by its noise alone."""
+class AdversarialConfig(ImitationTRPOConfig):
+    """The imitators' TRPO settings (inherited, shared with the survival control) plus D's."""
 
     disc_hidden: tuple[int, ...] = (100, 100)
     """Hidden layer sizes of the discriminator MLP (tanh)."""
@@ -59,9 +61,11 @@ class AdversarialConfig(TRPOConfig):
     """Weight of a gradient penalty on expert/policy interpolates (smooths D); 0 disables it."""
     gp_target: float = 0.0
     """Gradient norm the penalty pulls towards: 0 (zero-centred) or 1 (WGAN-GP style)."""
-    reward: str = "-log(1-D)"
-    """Policy reward as a function of D = P(expert): "-log(1-D)", "log D" or "log D - log(1-D)"."""
-    absorbing: bool = False
+    reward: str = "log D - log(1-D)"
+    """Policy reward as a function of D = P(expert): "log D - log(1-D)" (D's logit: either sign,
+    so with absorbing states it pays neither for surviving nor for falling), "-log(1-D)" (always
+    positive: pays for every step alive) or "log D" (always negative: pays for ending early)."""
+    absorbing: bool = True
     """Terminations lead into an absorbing state that D judges (bench.rl.absorbing); off: valued 0."""
 
     def __post_init__(self) -> None:

@@ -1,24 +1,29 @@
 """Control: TRPO on +1 per step, no demonstrations. On tasks that end early this is what a
-positive imitation reward earns for staying alive alone."""
+positive imitation reward earns for staying alive alone. It runs the imitators' TRPO settings
+(ImitationTRPOConfig), so it differs from GAIfO and GAIL only in its reward."""
 
 from __future__ import annotations
 
 import numpy as np
 
-from algorithms.common import deterministic, on_task_device, report_each_update
+from algorithms.common import (
+    ImitationTRPOConfig,
+    deterministic,
+    on_task_device,
+    report_each_update,
+)
 from bench.registry import Logger, Policy, Task, register
-from bench.rl.trpo import TRPOConfig
 from bench.rl.trpo import train as trpo_train
 
 
 @register(
     "survival",
-    config=TRPOConfig,
+    config=ImitationTRPOConfig,
     inputs="none",
     description="control: TRPO on +1 per step, no demos",
 )
 def train(
-    task: Task, demos: None, budget: int, seed: int, logger: Logger, config: TRPOConfig
+    task: Task, demos: None, budget: int, seed: int, logger: Logger, config: ImitationTRPOConfig
 ) -> Policy:
     learner = trpo_train(
         task.make_env,

@@ -1,4 +1,8 @@
-"""Learning claims, checked by running the learners through the runner (tiny but real budgets)."""
+"""Learning claims, checked by running the learners through the runner (tiny but real budgets).
+
+Floats differ in their last bits between CPUs and training amplifies that, so a given seed can
+pass on one machine and fail on another. The claims are therefore statistics over several
+seeds with headroom, never "seed k passes"; each was checked on two disjoint seed sets."""
 
 import pytest
 
@@ -7,6 +11,7 @@ from bench.runner import run_suite
 from bench.suite import expand, load_suite
 
 PENDULUM = "InvertedPendulumBulletEnv-v0"
+SEEDS = [0, 1, 2, 3, 4, 5]
 
 
 @pytest.fixture(autouse=True)
@@ -26,13 +31,17 @@ def test_gaifo_imitates_inverted_pendulum_from_one_demonstration(tmp_path):
     df = run(
         tmp_path,
         f"name: learn\nenvs: {{{PENDULUM}: {{budget: 100000}}}}\ndemos: [1]\n"
-        "algorithms: [random, expert, gaifo]\nseeds: 2\neval_episodes: 10\n",
+        f"algorithms: [random, expert, gaifo]\nseeds: {SEEDS}\neval_episodes: 10\n",
     )
     gaifo = df[df.algorithm == "gaifo"]
-    assert len(gaifo) == 2
-    assert (gaifo.normalized >= 0.9).all(), gaifo[["seed", "return", "normalized"]]
+    assert len(gaifo) == len(SEEDS)
+    shown = gaifo[["seed", "return", "normalized"]]
+    # Measured on seeds 0-5 and 10-15: every seed >= 0.95 on the development machine. One
+    # seed may fail elsewhere; two failing, or a low mean, means the learner broke.
+    assert gaifo.normalized.mean() >= 0.85, shown
+    assert (gaifo.normalized >= 0.9).sum() >= len(SEEDS) - 1, shown
     assert (gaifo.env_steps <= 100_000).all()
     logs = store.load_logs(tmp_path / "res")
     assert {"disc_loss", "disc_acc_policy", "disc_acc_expert"} <= set(logs.key)
     curves = store.load_curves(tmp_path / "res")
-    assert len(curves[curves.algorithm == "gaifo"]) >= 2 * 5
+    assert len(curves[curves.algorithm == "gaifo"]) >= len(SEEDS) * 5
