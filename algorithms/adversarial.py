@@ -216,6 +216,9 @@ def train_adversarial(
     gen = torch.Generator().manual_seed(seed + 2)
     reward = REWARDS[cfg.reward]
     stats: dict[str, float] = {}
+    absorbing_probe = to_device(
+        absorbing.tails(np.zeros((1, task.obs_dim)), task.act_dim, cfg.gamma)
+    )
 
     def reward_fn(batch: Batch) -> np.ndarray | Rewards:
         real = batch_transitions(batch, task)
@@ -232,13 +235,18 @@ def train_adversarial(
             r = reward(disc(policy_x)).cpu().numpy()
         per_step = r[:n_real].reshape(batch.rewards.shape)
         stats["reward_mean"] = float(per_step.mean())
+        stats["terminations"] = float(n_term)
         if not cfg.absorbing:
             return per_step
+        # D's current reward for the absorbing loop, logged every update: in batches without
+        # a termination D has no absorbing sample to train on, and what it makes of the state
+        # then drifts; that drift is what a collapse after reaching the expert needs watching for.
+        with torch.no_grad():
+            stats["reward_absorbing"] = float(reward(disc(absorbing_probe))[1])
         after = np.zeros(n_real)
         if n_term:
             tail = absorbing.tail_rewards(r[n_real:], n_term)
             after[terminated] = absorbing.tail_value(tail, cfg.gamma)
-            stats["reward_absorbing"] = float(tail[0, 1])
         return Rewards(per_step, after.reshape(batch.rewards.shape))
 
     train(
