@@ -26,7 +26,7 @@ from torch import nn
 
 from algorithms.common import (
     ImitationTRPOConfig,
-    deterministic,
+    PolicyAverage,
     on_task_device,
     report_each_update,
 )
@@ -216,6 +216,7 @@ def train_adversarial(
     gen = torch.Generator().manual_seed(seed + 2)
     reward = REWARDS[cfg.reward]
     stats: dict[str, float] = {}
+    average = PolicyAverage(cfg.policy_average)
     absorbing_probe = to_device(
         absorbing.tails(np.zeros((1, task.obs_dim)), task.act_dim, cfg.gamma)
     )
@@ -254,7 +255,7 @@ def train_adversarial(
         budget,
         seed,
         reward_fn=reward_fn,
-        callback=report_each_update(task, logger, stats),
+        callback=report_each_update(task, logger, stats, average),
         learner=learner,
     )
-    return deterministic(learner, task)
+    return average.policy(learner, task)

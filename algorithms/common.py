@@ -3,11 +3,14 @@ evaluates, and what they report after each update."""
 
 from __future__ import annotations
 
+import copy
 import dataclasses
 from dataclasses import dataclass
 
+import torch
+
 from bench.registry import Logger, Task
-from bench.rl.networks import DeterministicPolicy
+from bench.rl.networks import DeterministicPolicy, GaussianPolicy
 from bench.rl.rollout import Batch
 from bench.rl.trpo import TRPO, Callback, TRPOConfig
 
@@ -19,8 +22,13 @@ class ImitationTRPOConfig(TRPOConfig):
 
     init_log_std: float = 0.0
     """Action noise at the start (log of the Gaussian's std). Measured with absorbing states and
-    the signed reward (InvertedPendulum 100k, 10 seeds): at -0.5 two GAIfO seeds of ten and one
-    GAIL seed collapsed after reaching the expert; at 0.0 none did. Hopper at 1M agreed."""
+    the signed reward on InvertedPendulum (100k, 1 demo, 10 seeds): at -0.5 two GAIfO seeds and
+    one GAIL seed fell back after reaching the expert, at 0.0 none of the seeds measured did."""
+    policy_average: float = 0.9
+    """Decay per update of an exponential moving average of the policy's weights, which is what
+    is evaluated and returned (PolicyAverage); 0 returns the latest policy. Measured on
+    InvertedPendulum (100k, 1 and 5 demos, 10 seeds each): seeds below 0.95 went from 3 of 20
+    to 0 (GAIfO) and from 5 of 20 to 2 (GAIL) with 0.9."""
 
 
 def on_task_device(config: TRPOConfig, task: Task) -> TRPOConfig:
@@ -33,13 +41,49 @@ def deterministic(learner: TRPO, task: Task) -> DeterministicPolicy:
     return DeterministicPolicy(learner.policy, task.action_low, task.action_high)
 
 
+class PolicyAverage:
+    """Exponential moving average of a learner's policy weights, one step per TRPO update.
+
+    Adversarial imitation does not settle at a point: once D is at chance its reward is noise,
+    and TRPO still takes a full trust-region step on the normalized advantages of every batch,
+    so the latest policy is a random draw around the imitation. Averaging the weights of the
+    last updates, as is done for GAN generators, returns the centre instead."""
+
+    def __init__(self, decay: float) -> None:
+        self.decay = decay
+        self.weights: GaussianPolicy | None = None
+
+    @torch.no_grad()
+    def update(self, policy: GaussianPolicy) -> None:
+        if self.weights is None or self.decay == 0.0:
+            self.weights = copy.deepcopy(policy)
+            return
+        for mine, theirs in zip(self.weights.parameters(), policy.parameters(), strict=True):
+            mine.lerp_(theirs, 1.0 - self.decay)
+        for mine, theirs in zip(self.weights.buffers(), policy.buffers(), strict=True):
+            mine.copy_(theirs)  # observation statistics: the latest, as the policy's own
+
+    def policy(self, learner: TRPO, task: Task) -> DeterministicPolicy:
+        """The averaged mean policy (the learner's latest before any update)."""
+        weights = self.weights if self.weights is not None else learner.policy
+        return DeterministicPolicy(weights, task.action_low, task.action_high)
+
+
 def report_each_update(
-    task: Task, logger: Logger, stats: dict[str, float] | None = None
+    task: Task,
+    logger: Logger,
+    stats: dict[str, float] | None = None,
+    average: PolicyAverage | None = None,
 ) -> Callback:
-    """A TRPO callback: log `stats` (read at each call) and the KL, offer the policy for evaluation."""
+    """A TRPO callback: log `stats` (read at each call) and the KL, fold the policy into
+    `average` if given, and offer the policy (the average, if given) for evaluation."""
 
     def on_update(steps: int, learner: TRPO, batch: Batch, info: dict[str, float]) -> None:
         logger.log(steps, **(stats or {}), kl=info["kl"])
-        logger.checkpoint(steps, deterministic(learner, task))
+        if average is None:
+            logger.checkpoint(steps, deterministic(learner, task))
+        else:
+            average.update(learner.policy)
+            logger.checkpoint(steps, average.policy(learner, task))
 
     return on_update

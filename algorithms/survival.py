@@ -8,7 +8,7 @@ import numpy as np
 
 from algorithms.common import (
     ImitationTRPOConfig,
-    deterministic,
+    PolicyAverage,
     on_task_device,
     report_each_update,
 )
@@ -25,12 +25,13 @@ from bench.rl.trpo import train as trpo_train
 def train(
     task: Task, demos: None, budget: int, seed: int, logger: Logger, config: ImitationTRPOConfig
 ) -> Policy:
+    average = PolicyAverage(config.policy_average)
     learner = trpo_train(
         task.make_env,
         budget,
         seed,
         on_task_device(config, task),
         lambda batch: np.ones_like(batch.rewards),
-        report_each_update(task, logger),
+        report_each_update(task, logger, average=average),
     )
-    return deterministic(learner, task)
+    return average.policy(learner, task)
