@@ -19,8 +19,8 @@ from pathlib import Path
 
 import numpy as np
 
-from bench import envs, paths
-from bench.experts import atomic_write_bytes, load_expert
+from bench import atomic, envs, paths
+from bench.experts import load_expert
 from bench.types import ActionDemos, Demos
 
 POOL_SIZE = 25
@@ -74,7 +74,7 @@ def record(env_id: str, policy, n_episodes: int, seed: int) -> dict[str, np.ndar
 def save(path: Path, arrays: dict[str, np.ndarray]) -> Path:
     buf = io.BytesIO()
     np.savez(buf, **arrays)
-    atomic_write_bytes(path, buf.getvalue())
+    atomic.write_bytes(path, buf.getvalue())
     return path
 
 

@@ -12,7 +12,6 @@ from __future__ import annotations
 import copy
 import io
 import json
-import os
 import time
 from dataclasses import asdict
 from pathlib import Path
@@ -22,7 +21,7 @@ import torch
 from tqdm import tqdm
 
 import bench
-from bench import envs, paths
+from bench import atomic, envs, paths
 from bench.rl.networks import DeterministicPolicy, GaussianPolicy
 from bench.rl.rollout import evaluate
 from bench.rl.trpo import TRPO, TRPOConfig, train
@@ -33,17 +32,6 @@ EVAL_EPISODES = 50
 class ExpertError(FileNotFoundError):
     def __str__(self) -> str:
         return str(self.args[0])
-
-
-def atomic_write_bytes(path: Path, data: bytes) -> None:
-    """Write via a temp file in the same folder and rename, so readers never see half a file."""
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    with open(tmp, "wb") as f:
-        f.write(data)
-        f.flush()
-        os.fsync(f.fileno())
-    os.replace(tmp, path)
 
 
 def evaluate_policy(policy, env_id: str, episodes: int, seed: int, n_envs: int = 10) -> list[float]:
@@ -62,8 +50,8 @@ def save_expert(
     out = out_dir or paths.expert_dir(env_id)
     buf = io.BytesIO()
     torch.save({k: v.detach().cpu() for k, v in policy.state_dict().items()}, buf)
-    atomic_write_bytes(out / "policy.pt", buf.getvalue())
-    atomic_write_bytes(out / "meta.json", (json.dumps(meta, indent=2) + "\n").encode())
+    atomic.write_bytes(out / "policy.pt", buf.getvalue())
+    atomic.write_bytes(out / "meta.json", (json.dumps(meta, indent=2) + "\n").encode())
     return out
 
 

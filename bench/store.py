@@ -14,7 +14,6 @@ import dataclasses
 import json
 import math
 import os
-import tempfile
 import time
 import warnings
 from collections.abc import Iterator
@@ -24,6 +23,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from bench import atomic
 from bench.types import CurvePoint, TrialResult, TrialSpec
 
 TRIALS = "trials"
@@ -58,20 +58,7 @@ def write(results_dir: str | Path, result: TrialResult) -> Path:
     folder.mkdir(parents=True, exist_ok=True)
     _remove_stale_tmp(folder)
     text = json.dumps(_finite(dataclasses.asdict(result)), allow_nan=False, indent=1)
-    final = record_path(results_dir, result.trial_id)
-    fd, tmp = tempfile.mkstemp(dir=folder, prefix=f"{result.trial_id}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "w") as f:
-            f.write(text)
-            f.flush()
-            os.fsync(f.fileno())
-        os.replace(tmp, final)
-    except BaseException:
-        with contextlib.suppress(OSError):
-            os.unlink(tmp)
-        raise
-    _fsync_dir(folder)
-    return final
+    return atomic.write_text(record_path(results_dir, result.trial_id), text)
 
 
 def read(path: str | Path) -> TrialResult:
@@ -214,16 +201,3 @@ def _remove_stale_tmp(folder: Path) -> None:
         with contextlib.suppress(OSError):  # another process may clean it first
             if tmp.stat().st_mtime < cutoff:
                 tmp.unlink()
-
-
-def _fsync_dir(folder: Path) -> None:
-    """Make the rename itself durable (POSIX); a no-op where folders cannot be opened."""
-    try:
-        fd = os.open(folder, os.O_RDONLY)
-    except OSError:
-        return
-    try:
-        with contextlib.suppress(OSError):
-            os.fsync(fd)
-    finally:
-        os.close(fd)

@@ -33,11 +33,9 @@ from typing import Any
 import yaml
 
 from bench import paths, registry
+from bench.demos import POOL_SIZE as DEMO_POOL_SIZE
 from bench.envs import EnvError, check_env_id
 from bench.types import TrialSpec
-
-DEMO_POOL_SIZE = 25
-"""Demonstrations recorded per env; a suite may ask for at most this many."""
 
 _SUITE_KEYS = ("name", "envs", "demos", "algorithms", "seeds", "eval_episodes", "runner")
 _REQUIRED_KEYS = ("envs", "demos", "algorithms")
