@@ -12,6 +12,14 @@ from __future__ import annotations
 import pandas as pd
 
 RANDOM, EXPERT = "random", "expert"
+REFERENCES = (RANDOM, EXPERT)
+"""The reference algorithms that define 0 and 1; every other algorithm is a learner."""
+
+
+def demo_free(df: pd.DataFrame) -> pd.Series:
+    """Per row of `df`: does its algorithm take no demonstrations (it has only n_demos=0 rows,
+    e.g. random, expert or the survival control)? Such rows belong at every demo count."""
+    return df.groupby("algorithm")["n_demos"].transform("max") == 0
 
 
 class NormalizationError(ValueError):

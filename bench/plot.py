@@ -21,8 +21,8 @@ from matplotlib.patches import Patch
 
 from bench import registry
 from bench.envs import PAPER_ENVS
+from bench.normalize import REFERENCES, demo_free
 
-REFERENCES = ("random", "expert")
 """Normalized to 0 and 1 by construction: drawn as lines, not bars."""
 PAPER_ALGORITHMS = ("gaifo", "gail", "bco", "tcn", "survival")
 """Fixed order and colors; other algorithms follow alphabetically."""
@@ -87,11 +87,11 @@ def algorithm_label(name: str) -> str:
 def repeat_demo_free(df: pd.DataFrame) -> pd.DataFrame:
     """Rows of algorithms seen only with n_demos=0, copied to every positive demo count in `df`."""
     demos = sorted(n for n in df["n_demos"].unique() if n > 0)
-    demo_free = df.groupby("algorithm")["n_demos"].transform("max") == 0
-    if not demos or not demo_free.any():
+    free = demo_free(df)
+    if not demos or not free.any():
         return df
-    copies = [df[demo_free].assign(n_demos=n) for n in demos]
-    return pd.concat([df[~demo_free], *copies], ignore_index=True)
+    copies = [df[free].assign(n_demos=n) for n in demos]
+    return pd.concat([df[~free], *copies], ignore_index=True)
 
 
 # ---------------------------------------------------------------- Figure 2
@@ -263,12 +263,14 @@ def write_summary_csv(df: pd.DataFrame, path: str | Path) -> Path:
 
 
 def save(fig: Figure, out: str | Path) -> list[Path]:
-    """Write `fig` as out.png (dpi 200) and out.pdf, whatever suffix `out` has."""
+    """Write `fig` as out.png (dpi 200) and out.pdf, whatever suffix `out` has. The PDF carries
+    no creation date, so redrawing unchanged records leaves committed figures unchanged."""
     out = Path(out)
     out.parent.mkdir(parents=True, exist_ok=True)
     paths = [out.with_suffix(".png"), out.with_suffix(".pdf")]
     for path in paths:
-        fig.savefig(path, dpi=DPI, bbox_inches="tight")
+        metadata = {"CreationDate": None} if path.suffix == ".pdf" else None
+        fig.savefig(path, dpi=DPI, bbox_inches="tight", metadata=metadata)
     return paths
 
 

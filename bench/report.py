@@ -28,7 +28,7 @@ from matplotlib.lines import Line2D
 from matplotlib.ticker import EngFormatter
 
 from bench import plot, stats, store
-from bench.normalize import EXPERT, RANDOM, normalize, reference_returns
+from bench.normalize import EXPERT, RANDOM, REFERENCES, demo_free, normalize, reference_returns
 
 REPORT = "report.md"
 AGGREGATES_CSV = "aggregates.csv"
@@ -139,23 +139,22 @@ def tables(report: str | Path) -> str:
 
 def demo_counts(df: pd.DataFrame) -> list[int]:
     """The demonstration counts the learners ran with; [0] when every learner is demonstration-free."""
-    learners = df[~df["algorithm"].isin(stats.REFERENCES)]
+    learners = df[~df["algorithm"].isin(REFERENCES)]
     counts = sorted(int(n) for n in learners["n_demos"].unique() if n > 0)
     return counts or ([0] if len(learners) else [])
 
 
 def competitors(df: pd.DataFrame, n_demos: int) -> list[str]:
     """Learners with trials at `n_demos`, plus the demonstration-free ones (controls), in plot order."""
-    learners = df[~df["algorithm"].isin(stats.REFERENCES)]
-    demo_free = learners.groupby("algorithm")["n_demos"].max() == 0
-    here = set(learners.loc[learners["n_demos"] == n_demos, "algorithm"])
-    return plot.algorithm_order(here | set(demo_free[demo_free].index))
+    learners = df[~df["algorithm"].isin(REFERENCES)]
+    here = learners["n_demos"] == n_demos
+    return plot.algorithm_order(set(learners.loc[here | demo_free(learners), "algorithm"]))
 
 
 def load_iqm_curves(results_dir: Path, trials: pd.DataFrame, reps: int = 2000) -> pd.DataFrame:
     """`iqm_curves` of the learners' recorded curves, normalized with `trials`' references."""
     curves = store.load_curves(results_dir)
-    curves = curves[~curves["algorithm"].isin(stats.REFERENCES)]
+    curves = curves[~curves["algorithm"].isin(REFERENCES)]
     return iqm_curves(normalize(curves, reference_returns(trials)), reps=reps)
 
 
@@ -573,8 +572,7 @@ def _curves_section(
 ) -> str:
     if isinstance(curves, str):
         return f"No learning curves: {curves}."
-    demo_free = curves.groupby("algorithm")["n_demos"].transform("max") == 0
-    frame = curves[curves["algorithm"].isin(names) & ((curves["n_demos"] == n) | demo_free)]
+    frame = curves[curves["algorithm"].isin(names) & ((curves["n_demos"] == n) | demo_free(curves))]
     if frame.empty:
         return f"No learning curves were recorded with {title.lower()}."
     text = ""

@@ -18,7 +18,7 @@ import numpy as np
 import pandas as pd
 import scipy.stats
 
-from bench.normalize import EXPERT, RANDOM
+from bench.normalize import REFERENCES, demo_free
 
 
 def _import_rliable() -> tuple[ModuleType, ModuleType]:
@@ -52,8 +52,6 @@ def _import_rliable() -> tuple[ModuleType, ModuleType]:
 
 rly, metrics = _import_rliable()
 
-REFERENCES = (RANDOM, EXPERT)
-
 METRICS: dict[str, Callable[[np.ndarray], float]] = {
     "mean": metrics.aggregate_mean,
     "median": metrics.aggregate_median,
@@ -78,12 +76,12 @@ def score_dict(
     """
     # Algorithms that take no demonstrations (n_demos=0 only) compete at every count;
     # random and expert are left out, being 0 and 1 by construction.
-    demo_free = df.groupby("algorithm")["n_demos"].transform("max") == 0
+    free = demo_free(df)
     at_count = df["n_demos"] == n_demos
     if algorithms is None:
-        frame = df[at_count | (demo_free & ~df["algorithm"].isin(REFERENCES))]
+        frame = df[at_count | (free & ~df["algorithm"].isin(REFERENCES))]
     else:
-        frame = df[df["algorithm"].isin(algorithms) & (at_count | demo_free)]
+        frame = df[df["algorithm"].isin(algorithms) & (at_count | free)]
     if frame.empty:
         have = ", ".join(map(str, sorted(df["n_demos"].unique())))
         raise ValueError(f"no scores with n_demos={n_demos} (have: {have or 'none'})")
