@@ -27,7 +27,6 @@ from torch import nn
 from algorithms.common import (
     ImitationTRPOConfig,
     PolicyAverage,
-    on_task_device,
     report_each_update,
 )
 from bench.registry import Logger, Task
@@ -201,8 +200,7 @@ def train_adversarial(
 
     `expert_actions`: (T_i, A) per demonstration, for a variant whose features use them (GAIL).
     """
-    cfg = on_task_device(cfg, task)
-    learner = TRPO(task.obs_dim, task.act_dim, cfg, seed)
+    learner = TRPO(task.obs_dim, task.act_dim, cfg, seed, task.device)
     device = learner.device
     to_device = lambda x: x.map(lambda a: torch.as_tensor(a, device=device))  # noqa: E731
     expert = expert_transitions(

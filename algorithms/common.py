@@ -4,7 +4,6 @@ evaluates, and what they report after each update."""
 from __future__ import annotations
 
 import copy
-import dataclasses
 from dataclasses import dataclass
 
 import torch
@@ -29,11 +28,6 @@ class ImitationTRPOConfig(TRPOConfig):
     is evaluated and returned (PolicyAverage); 0 returns the latest policy. Measured on
     InvertedPendulum (100k, 1 and 5 demos, 10 seeds each): seeds below 0.95 went from 3 of 20
     to 0 (GAIfO) and from 5 of 20 to 2 (GAIL) with 0.9."""
-
-
-def on_task_device(config: TRPOConfig, task: Task) -> TRPOConfig:
-    """`config` with networks on the runner's device (cpu unless `bench run --device`)."""
-    return dataclasses.replace(config, device=task.device)
 
 
 def deterministic(learner: TRPO, task: Task) -> DeterministicPolicy:

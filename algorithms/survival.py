@@ -9,7 +9,6 @@ import numpy as np
 from algorithms.common import (
     ImitationTRPOConfig,
     PolicyAverage,
-    on_task_device,
     report_each_update,
 )
 from bench.registry import Logger, Policy, Task, register
@@ -30,8 +29,9 @@ def train(
         task.make_env,
         budget,
         seed,
-        on_task_device(config, task),
+        config,
         lambda batch: np.ones_like(batch.rewards),
         report_each_update(task, logger, average=average),
+        device=task.device,
     )
     return average.policy(learner, task)

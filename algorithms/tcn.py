@@ -30,7 +30,7 @@ import torch
 import torch.nn.functional as F
 from torch import nn
 
-from algorithms.common import deterministic, on_task_device, report_each_update
+from algorithms.common import deterministic, report_each_update
 from bench.registry import Logger, Policy, Task, register
 from bench.rl.networks import RunningNorm, mlp
 from bench.rl.rollout import Batch
@@ -178,8 +178,9 @@ def train(
         task.make_env,
         budget,
         seed,
-        on_task_device(cfg, task),
+        cfg,
         reward_fn,
         report_each_update(task, logger, stats),
+        device=task.device,
     )
     return deterministic(learner, task)

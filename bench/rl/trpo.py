@@ -53,8 +53,6 @@ class TRPOConfig:
     """Hidden layer sizes of policy and value MLPs."""
     init_log_std: float = 0.0
     """Initial log standard deviation of the policy."""
-    device: str = "cpu"
-    """Where the networks live; rollouts always step on the CPU."""
 
     @property
     def batch_size(self) -> int:
@@ -195,10 +193,14 @@ def value_step(
 class TRPO:
     """Policy, value function and their optimizer state; `update` consumes one Batch."""
 
-    def __init__(self, obs_dim: int, act_dim: int, cfg: TRPOConfig, seed: int) -> None:
+    def __init__(
+        self, obs_dim: int, act_dim: int, cfg: TRPOConfig, seed: int, device: str = "cpu"
+    ) -> None:
+        """`device`: where the networks live (rollouts always step on the CPU). Not part of the
+        config, so that where a trial ran never changes what it is."""
         torch.manual_seed(seed)
         self.cfg = cfg
-        self.device = torch.device(cfg.device)
+        self.device = torch.device(device)
         self.policy = GaussianPolicy(obs_dim, act_dim, cfg.hidden, cfg.init_log_std).to(self.device)
         self.value = ValueNet(self.policy.norm, obs_dim, cfg.hidden).to(self.device)
         self.vf_opt = torch.optim.Adam(self.value.net.parameters(), lr=cfg.vf_lr)
@@ -283,6 +285,7 @@ def train(
     reward_fn: RewardFn | None = None,
     callback: Callback | None = None,
     learner: TRPO | None = None,
+    device: str = "cpu",
 ) -> TRPO:
     """Run TRPO for at most `budget` env steps (whole batches only) and return the learner.
 
@@ -298,7 +301,7 @@ def train(
     envs = [make_env(seed * 1000 + i) for i in range(cfg.n_envs)]
     obs_dim = int(np.prod(envs[0].observation_space.shape))
     act_dim = int(np.prod(envs[0].action_space.shape))
-    learner = learner or TRPO(obs_dim, act_dim, cfg, seed)
+    learner = learner or TRPO(obs_dim, act_dim, cfg, seed, device)
     collector = VecCollector(envs, seed * 1000)
     steps = 0
     try:
