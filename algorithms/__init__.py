@@ -1,3 +1,2 @@
-"""Built-in algorithms. Importing this package registers each of them."""
-
-from algorithms import bco, expert, gaifo, gail, random, survival, tcn  # noqa: F401
+"""Built-in algorithms, one module each. The registry imports them through the entry-point
+group `ifo_bench.algorithms` (pyproject.toml), as it does any plugin."""

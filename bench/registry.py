@@ -19,9 +19,9 @@ An algorithm is one function plus a config dataclass::
 
 `inputs` says what `demos` is: "states" -> `Demos` (no actions, by type),
 "actions" -> `ActionDemos` (GAIL only), "expert" -> the expert `Policy`,
-"none" -> None. Built-ins register on import of `algorithms`; other packages
-register through the entry-point group `ifo_bench.algorithms`, whose entry
-points name a module (or callable) to import, e.g. in their pyproject.toml::
+"none" -> None. Every algorithm, built-in or not, registers through the
+entry-point group `ifo_bench.algorithms`, whose entry points name a module
+(or callable) to import, e.g. in a package's pyproject.toml::
 
     [project.entry-points."ifo_bench.algorithms"]
     my-ifo = "my_package.my_ifo"
@@ -131,14 +131,15 @@ def register(
 
 
 def _load_all() -> None:
+    """Import every module of the entry-point group once; importing one runs its @register.
+    The built-ins are listed in ifo-bench's own pyproject.toml, so the registry depends on no
+    algorithm and no algorithm module is imported before it is asked for."""
     global _loaded
     if _loaded:
         return
     _loaded = True
-    import algorithms  # noqa: F401  (built-ins register themselves)
-
     for ep in importlib.metadata.entry_points(group=ENTRY_POINT_GROUP):
-        ep.load()  # importing the module runs its @register
+        ep.load()
 
 
 def get(name: str) -> Algorithm:
