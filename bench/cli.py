@@ -178,6 +178,30 @@ def _normalized_alike(run: pd.DataFrame, ref: pd.DataFrame) -> tuple[pd.DataFram
     return normalize.normalize(run, refs), normalize.normalize(ref, refs)
 
 
+def _demos_export(args: argparse.Namespace) -> int:
+    from bench import minari_io, normalize, store
+
+    if not Path(args.references).is_dir():
+        raise FileNotFoundError(f"{args.references}: no such results folder")
+    refs = normalize.reference_returns(store.load(args.references)).set_index("env_id")
+    if args.env_id not in refs.index or refs.loc[args.env_id].isna().any():
+        raise normalize.NormalizationError(
+            f"{args.references} has no random and expert trials of {args.env_id} to take "
+            "ref_min_score and ref_max_score from"
+        )
+    random, expert = (
+        refs.loc[args.env_id, normalize.RANDOM],
+        refs.loc[args.env_id, normalize.EXPERT],
+    )
+    name = minari_io.export(args.env_id, args.dir, random, expert)
+    print(
+        f"wrote {Path(args.dir) / name} (ref_min_score {random:.1f}, ref_max_score {expert:.1f}"
+        f" from {args.references}); load it with MINARI_DATASETS_PATH={args.dir}"
+        f" minari.load_dataset({name!r})"
+    )
+    return 0
+
+
 def _list(args: argparse.Namespace) -> int:
     from bench import registry
 
@@ -309,6 +333,25 @@ def build_parser() -> argparse.ArgumentParser:
     ls = esub.add_parser("list", help="show the available experts and their returns")
     ls.add_argument("--markdown", action="store_true", help="print a markdown table")
     ls.set_defaults(func=_experts_list)
+
+    dem = sub.add_parser("demos", help="the expert demonstrations, in other formats")
+    dsub = dem.add_subparsers(dest="demos_command", required=True, metavar="ACTION")
+    exp = dsub.add_parser(
+        "export",
+        help="write an env's expert pool as a local Minari dataset",
+        description="Write ENV_ID's expert demonstration pool (observations, actions, rewards,"
+        " terminations) as a Minari dataset under DIR, with the random and expert mean returns"
+        " of a results folder as ref_min_score / ref_max_score.",
+    )
+    exp.add_argument("env_id", help="gymnasium id, e.g. HopperBulletEnv-v0")
+    exp.add_argument("dir", type=Path, help="Minari datasets folder (MINARI_DATASETS_PATH)")
+    exp.add_argument(
+        "--references",
+        required=True,
+        metavar="RESULTS",
+        help="results folder whose random and expert trials define the scores, e.g. results/pybullet",
+    )
+    exp.set_defaults(func=_demos_export)
     return parser
 
 
@@ -316,6 +359,7 @@ def _user_errors() -> tuple[type[Exception], ...]:
     """Exceptions that mean bad input: printed as one line, exit status 2."""
     from bench.demos import DemoError
     from bench.experts import ExpertError
+    from bench.minari_io import DatasetError
     from bench.normalize import NormalizationError
     from bench.registry import RegistryError
     from bench.stats import ComparisonError
@@ -329,6 +373,7 @@ def _user_errors() -> tuple[type[Exception], ...]:
         DemoError,
         NormalizationError,
         ComparisonError,
+        DatasetError,
         FileNotFoundError,
     )
 

@@ -108,7 +108,8 @@ def _open(path: Path, env_id: str) -> np.lib.npyio.NpzFile:
     return data
 
 
-def _episodes(flat: np.ndarray, lengths: np.ndarray) -> tuple[np.ndarray, ...]:
+def split_episodes(flat: np.ndarray, lengths: np.ndarray) -> tuple[np.ndarray, ...]:
+    """Arrays stored back to back, split into episodes of the given lengths."""
     return tuple(np.split(flat, np.cumsum(lengths)[:-1]))
 
 
@@ -124,7 +125,7 @@ def _pick(n_pool: int, k: int | None, seed: int) -> np.ndarray:
 def load_demos(path: Path, env_id: str, k: int | None = None, seed: int = 0) -> Demos:
     """State-only demonstrations: k episodes drawn by `seed` (all if k is None). Never reads actions."""
     data = _open(path, env_id)
-    eps = _episodes(data["obs"], data["obs_lengths"])
+    eps = split_episodes(data["obs"], data["obs_lengths"])
     idx = _pick(len(eps), k, seed)
     terminated = data["terminated"]
     return Demos(env_id, tuple(eps[i] for i in idx), tuple(bool(terminated[i]) for i in idx))
@@ -135,7 +136,7 @@ def load_action_demos(path: Path, env_id: str, k: int | None = None, seed: int =
     data = _open(path, env_id)
     demos = load_demos(path, env_id, k, seed)
     lengths = data["obs_lengths"]
-    acts = _episodes(data["actions"], lengths - 1)
+    acts = split_episodes(data["actions"], lengths - 1)
     idx = _pick(len(lengths), k, seed)
     return ActionDemos(demos, tuple(acts[i] for i in idx))
 
@@ -143,4 +144,4 @@ def load_action_demos(path: Path, env_id: str, k: int | None = None, seed: int =
 def pool_returns(path: Path, env_id: str) -> np.ndarray:
     """Per-episode expert returns of a pool (for reports)."""
     data = _open(path, env_id)
-    return np.array([r.sum() for r in _episodes(data["rewards"], data["obs_lengths"] - 1)])
+    return np.array([r.sum() for r in split_episodes(data["rewards"], data["obs_lengths"] - 1)])
