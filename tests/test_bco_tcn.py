@@ -16,12 +16,9 @@ PENDULUM = "InvertedPendulumBulletEnv-v0"
 
 
 @pytest.fixture(scope="module")
-def cache(tmp_path_factory):
+def cache(module_cache):
     """One demo pool (recorded with the shipped expert) for the whole module, in a temp folder."""
-    mp = pytest.MonkeyPatch()
-    mp.setattr("bench.paths.CACHE_DIR", tmp_path_factory.mktemp("cache"))
-    yield
-    mp.undo()
+    return module_cache
 
 
 def run_state_only(name: str, budget: int, monkeypatch, **hp):

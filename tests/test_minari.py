@@ -4,16 +4,15 @@ import minari
 import numpy as np
 import pytest
 
-from bench import cli, demos, minari_io, paths
+from bench import cli, demos, minari_io
 
 PENDULUM = "InvertedPendulumBulletEnv-v0"
 
 
 @pytest.fixture(scope="module")
-def exported(tmp_path_factory):
+def exported(module_cache, tmp_path_factory):
     """The pendulum's pool, recorded into a private cache and exported to a private folder."""
     mp = pytest.MonkeyPatch()
-    mp.setattr(paths, "CACHE_DIR", tmp_path_factory.mktemp("cache"))
     root = tmp_path_factory.mktemp("minari")
     name = minari_io.export(PENDULUM, root, random_return=20.0, expert_return=1000.0)
     mp.setenv("MINARI_DATASETS_PATH", str(root))
