@@ -18,6 +18,7 @@ from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 from matplotlib.patches import Patch
+from matplotlib.ticker import EngFormatter
 
 from bench import registry
 from bench.envs import PAPER_ENVS
@@ -200,8 +201,35 @@ def learning_curves(
     return save(draw_learning_curves(curves, n_demos), out)
 
 
-def draw_performance_profile(profile: pd.DataFrame) -> Figure:
-    """Score distributions from stats.performance_profile: fraction of runs above tau, with CI band."""
+def draw_iqm_curves(frame: pd.DataFrame, title: str) -> Figure:
+    """Per env, IQM normalized return against env steps, band the 95% CI (from `stats.iqm_curves`)."""
+    envs = env_order(frame["env_id"].unique())
+    algos = algorithm_order(frame["algorithm"].unique())
+    colors = algorithm_colors(algos)
+    with sns.axes_style("whitegrid"), sns.plotting_context("paper"):
+        fig, axes = _panels(len(envs), width=2.35, height=1.9)
+        for ax, env_id in zip(axes, envs, strict=False):
+            for a in algos:
+                rows = frame[(frame["env_id"] == env_id) & (frame["algorithm"] == a)]
+                rows = rows.sort_values("env_steps")
+                ax.plot(rows["env_steps"], rows["iqm"], color=colors[a], lw=1.3)
+                ax.fill_between(
+                    rows["env_steps"], rows["lo"], rows["hi"], color=colors[a], alpha=0.2, lw=0
+                )
+            _reference_lines(ax)
+            ax.set_title(env_label(env_id))
+            ax.set_xlim(left=0)
+            ax.xaxis.set_major_formatter(EngFormatter(sep=""))  # 200k, 1M: no offset text
+        fig.supxlabel("Environment steps", fontsize="medium")
+        fig.supylabel("Normalized return (IQM)", fontsize="medium")
+        handles = [Line2D([], [], color=colors[a], label=algorithm_label(a)) for a in algos]
+        _legend_and_titles(fig, handles, title, algos)
+    return fig
+
+
+def draw_performance_profile(profile: pd.DataFrame, title: str | None = None) -> Figure:
+    """Score distributions from stats.performance_profile: fraction of runs above tau, with CI band.
+    With a `title`, the legend goes under the axes, off the curves (as in the report)."""
     algos = algorithm_order(profile["algorithm"].unique())
     colors = algorithm_colors(algos)
     with sns.axes_style("whitegrid"), sns.plotting_context("paper"):
@@ -217,6 +245,19 @@ def draw_performance_profile(profile: pd.DataFrame) -> Figure:
         ax.legend(frameon=False)
         if any(uses_actions(a) for a in algos):
             ax.set_title(ACTIONS_FOOTNOTE, loc="right", fontsize="small", color="0.3")
+        if title is not None:
+            handles, labels = ax.get_legend_handles_labels()
+            ax.get_legend().remove()
+            fig.suptitle(title, fontweight="bold", fontsize="medium")
+            fig.legend(
+                handles,
+                labels,
+                loc="outside lower center",
+                ncol=min(4, len(labels)),
+                frameon=False,
+                handlelength=1.6,
+                columnspacing=1.2,
+            )
     return fig
 
 

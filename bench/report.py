@@ -16,16 +16,11 @@ from __future__ import annotations
 
 import math
 import warnings
-from collections import defaultdict
 from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
-import seaborn as sns
-from matplotlib.figure import Figure
-from matplotlib.lines import Line2D
-from matplotlib.ticker import EngFormatter
 
 from bench import plot, stats, store
 from bench.normalize import EXPERT, RANDOM, REFERENCES, demo_free, normalize, reference_returns
@@ -39,7 +34,6 @@ TAUS = 81
 """Score thresholds in a performance profile."""
 AGGREGATE_COLUMNS = ["n_demos", "algorithm", "seeds", "envs", "metric", "estimate", "lo", "hi"]
 IMPROVEMENT_COLUMNS = ["n_demos", "algorithm", "other", "estimate", "lo", "hi"]
-CURVE_COLUMNS = ["env_id", "algorithm", "n_demos", "env_steps", "iqm", "lo", "hi", "seeds"]
 MAX_LISTED = 20
 """Failed trials named one by one in the header; the rest are counted."""
 METRIC_LABELS = {"mean": "mean", "median": "median", "iqm": "IQM"}
@@ -155,107 +149,7 @@ def load_iqm_curves(results_dir: Path, trials: pd.DataFrame, reps: int = 2000) -
     """`iqm_curves` of the learners' recorded curves, normalized with `trials`' references."""
     curves = store.load_curves(results_dir)
     curves = curves[~curves["algorithm"].isin(REFERENCES)]
-    return iqm_curves(normalize(curves, reference_returns(trials)), reps=reps)
-
-
-def iqm_curves(curves: pd.DataFrame, reps: int = 2000, seed: int = 0) -> pd.DataFrame:
-    """IQM over seeds of the normalized return at each evaluation point, with a 95% CI.
-
-    `curves`: normalized learning curves (env_id, algorithm, n_demos, seed,
-    env_steps, normalized). Returns one row per env, algorithm, demo count and
-    evaluation point: env_id, algorithm, n_demos, env_steps, iqm, lo, hi, seeds.
-    Seeds evaluated at different steps are interpolated onto the steps of all
-    of them, within the range they share. Every (env, algorithm, demo count,
-    step) is a stratum of rliable's stratified bootstrap, so the band is pointwise.
-    """
-    # rliable wants one array per run count; cells with as many seeds share one, side by side.
-    pooled: dict[int, list[tuple[tuple, pd.DataFrame]]] = defaultdict(list)
-    for key, rows in curves.dropna(subset=["normalized"]).groupby(
-        ["env_id", "algorithm", "n_demos"]
-    ):
-        if rows.duplicated(["seed", "env_steps"]).any():
-            raise ValueError(
-                f"{key[1]} on {key[0]} with {key[2]} demos has several curves per seed;"
-                " filter to one suite first"
-            )
-        table = _on_common_steps(rows.pivot(index="seed", columns="env_steps", values="normalized"))
-        if table.size:
-            pooled[len(table)].append((key, table))
-    out = []
-    for n_seeds, cells in sorted(pooled.items()):
-        matrix = np.concatenate([t.to_numpy(dtype=float) for _, t in cells], axis=1)
-        with stats._seeded(seed):
-            points, intervals = stats.rly.get_interval_estimates(
-                {"cells": matrix}, _iqm_per_column, reps=reps
-            )
-        i = 0
-        for (env_id, algo, n), table in cells:
-            for step in table.columns:
-                lo, hi = intervals["cells"][:, i]
-                out.append((env_id, algo, n, step, points["cells"][i], lo, hi, n_seeds))
-                i += 1
-    return pd.DataFrame(out, columns=CURVE_COLUMNS)
-
-
-def _iqm_per_column(scores: np.ndarray) -> np.ndarray:
-    """IQM of each column of a (runs x cells) array: one bootstrap of every cell at once."""
-    return stats.iqm(scores, axis=0)
-
-
-def _on_common_steps(table: pd.DataFrame) -> pd.DataFrame:
-    """A (seeds x env_steps) table without gaps: interpolated inside, cut to the shared range."""
-    if table.isna().any(axis=None):
-        table = table.T.interpolate(method="index", limit_area="inside").T
-    return table.dropna(axis=1)
-
-
-# ---------------------------------------------------------------- figures
-
-
-def draw_iqm_curves(frame: pd.DataFrame, title: str) -> Figure:
-    """Per env, IQM normalized return against env steps, band the 95% CI (from `iqm_curves`)."""
-    envs = plot.env_order(frame["env_id"].unique())
-    algos = plot.algorithm_order(frame["algorithm"].unique())
-    colors = plot.algorithm_colors(algos)
-    with sns.axes_style("whitegrid"), sns.plotting_context("paper"):
-        fig, axes = plot._panels(len(envs), width=2.35, height=1.9)
-        for ax, env_id in zip(axes, envs, strict=False):
-            for a in algos:
-                rows = frame[(frame["env_id"] == env_id) & (frame["algorithm"] == a)]
-                rows = rows.sort_values("env_steps")
-                ax.plot(rows["env_steps"], rows["iqm"], color=colors[a], lw=1.3)
-                ax.fill_between(
-                    rows["env_steps"], rows["lo"], rows["hi"], color=colors[a], alpha=0.2, lw=0
-                )
-            plot._reference_lines(ax)
-            ax.set_title(plot.env_label(env_id))
-            ax.set_xlim(left=0)
-            ax.xaxis.set_major_formatter(EngFormatter(sep=""))  # 200k, 1M: no offset text
-        fig.supxlabel("Environment steps", fontsize="medium")
-        fig.supylabel("Normalized return (IQM)", fontsize="medium")
-        handles = [Line2D([], [], color=colors[a], label=plot.algorithm_label(a)) for a in algos]
-        plot._legend_and_titles(fig, handles, title, algos)
-    return fig
-
-
-def draw_performance_profile(profile: pd.DataFrame, title: str) -> Figure:
-    """plot.draw_performance_profile with a title, and its legend under the axes, off the curves."""
-    fig = plot.draw_performance_profile(profile)
-    ax = fig.axes[0]
-    handles, labels = ax.get_legend_handles_labels()
-    ax.get_legend().remove()
-    with sns.axes_style("whitegrid"), sns.plotting_context("paper"):  # as the rest of it
-        fig.suptitle(title, fontweight="bold", fontsize="medium")
-        fig.legend(
-            handles,
-            labels,
-            loc="outside lower center",
-            ncol=min(4, len(labels)),
-            frameon=False,
-            handlelength=1.6,
-            columnspacing=1.2,
-        )
-    return fig
+    return stats.iqm_curves(normalize(curves, reference_returns(trials)), reps=reps)
 
 
 # ---------------------------------------------------------------- markdown
@@ -550,7 +444,7 @@ def _demo_section(
         profile = stats.performance_profile(scores, taus, reps=reps)
         name = f"profile_{n}demos"
         plot.save(
-            draw_performance_profile(profile, f"Performance profile, {title.lower()}"),
+            plot.draw_performance_profile(profile, f"Performance profile, {title.lower()}"),
             out_dir / name,
         )
         parts += [
@@ -582,7 +476,7 @@ def _curves_section(
             f"No learning curve recorded for {', '.join(map(plot.algorithm_label, missing))}.\n\n"
         )
     name = f"curves_{n}demos"
-    plot.save(draw_iqm_curves(frame, f"Learning curves, {title.lower()}"), out_dir / name)
+    plot.save(plot.draw_iqm_curves(frame, f"Learning curves, {title.lower()}"), out_dir / name)
     return (
         text + "Normalized return at each evaluation during training: IQM over seeds, "
         "band: 95% CI.\n\n" + f"![Learning curves, {title.lower()}]({name}.png)"

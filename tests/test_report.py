@@ -139,7 +139,7 @@ def test_iqm_curves_are_rliable_iqm_per_step():
     curves = pd.DataFrame(
         rows, columns=["env_id", "algorithm", "n_demos", "seed", "env_steps", "normalized"]
     )
-    frame = report.iqm_curves(curves, reps=REPS)
+    frame = stats.iqm_curves(curves, reps=REPS)
     assert frame["env_steps"].tolist() == [0, 100]
     assert frame["iqm"].tolist() == [
         stats.metrics.aggregate_iqm(np.array([0.0, 2, 4, 6])),
@@ -156,7 +156,7 @@ def test_iqm_curves_put_seeds_on_shared_steps():
     curves = pd.DataFrame(
         rows, columns=["env_id", "algorithm", "n_demos", "seed", "env_steps", "normalized"]
     )
-    frame = report.iqm_curves(curves, reps=20)
+    frame = stats.iqm_curves(curves, reps=20)
     assert frame["env_steps"].tolist() == [10, 50, 60, 90]  # inside both seeds' range
     np.testing.assert_allclose(frame["iqm"], [0.1, 0.5, 0.6, 0.9])
 
