@@ -154,53 +154,6 @@ def figure2(df: pd.DataFrame, out: str | Path) -> list[Path]:
 # ---------------------------------------------------------------- later-report figures
 
 
-def draw_learning_curves(curves: pd.DataFrame, n_demos: int | None = None) -> Figure:
-    """Per env, normalized return against env steps: mean over seeds, band one std.
-
-    `curves` is store.load_curves normalized with the trials' references;
-    `n_demos` defaults to the largest demonstration count in it.
-    """
-    learners = curves[~curves["algorithm"].isin(REFERENCES)]
-    if learners.empty:
-        raise ValueError("no learning curves to plot")
-    n_demos = learners["n_demos"].max() if n_demos is None else n_demos
-    learners = learners[learners["n_demos"] == n_demos]
-    envs = env_order(learners["env_id"].unique())
-    algos = algorithm_order(learners["algorithm"].unique())
-    colors = algorithm_colors(algos)
-
-    with sns.axes_style("whitegrid"), sns.plotting_context("paper"):
-        fig, axes = _panels(len(envs), width=2.35, height=1.9)
-        for ax, env_id in zip(axes, envs, strict=False):
-            sns.lineplot(
-                data=learners[learners["env_id"] == env_id],
-                x="env_steps",
-                y="normalized",
-                hue="algorithm",
-                hue_order=algos,
-                palette=colors,
-                errorbar="sd",
-                legend=False,
-                ax=ax,
-            )
-            _reference_lines(ax)
-            ax.set_title(env_label(env_id))
-            ax.set_xlabel("")
-            ax.set_ylabel("")
-            ax.ticklabel_format(axis="x", style="sci", scilimits=(0, 0), useMathText=True)
-        fig.supxlabel("Environment steps", fontsize="medium")
-        fig.supylabel("Normalized return", fontsize="medium")
-        handles = [Line2D([], [], color=colors[a], label=algorithm_label(a)) for a in algos]
-        _legend_and_titles(fig, handles, f"Learning curves with {n_demos} demonstrations", algos)
-    return fig
-
-
-def learning_curves(
-    curves: pd.DataFrame, out: str | Path, n_demos: int | None = None
-) -> list[Path]:
-    return save(draw_learning_curves(curves, n_demos), out)
-
-
 def draw_iqm_curves(frame: pd.DataFrame, title: str) -> Figure:
     """Per env, IQM normalized return against env steps, band the 95% CI (from `stats.iqm_curves`)."""
     envs = env_order(frame["env_id"].unique())
@@ -259,10 +212,6 @@ def draw_performance_profile(profile: pd.DataFrame, title: str | None = None) ->
                 columnspacing=1.2,
             )
     return fig
-
-
-def performance_profile_plot(profile: pd.DataFrame, out: str | Path) -> list[Path]:
-    return save(draw_performance_profile(profile), out)
 
 
 # ---------------------------------------------------------------- tables

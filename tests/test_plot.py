@@ -132,7 +132,7 @@ def test_summary_csv(tmp_path):
     assert len(back) == len(frame())
 
 
-def test_learning_curves(tmp_path):
+def test_iqm_learning_curves(tmp_path):
     rows = [
         (env_id, algo, 10, seed, step, step / 1000 * (0.9 if algo == "gaifo" else 0.8))
         for env_id in ENVS
@@ -143,9 +143,10 @@ def test_learning_curves(tmp_path):
     curves = pd.DataFrame(
         rows, columns=["env_id", "algorithm", "n_demos", "seed", "env_steps", "normalized"]
     )
-    fig = plot.draw_learning_curves(curves)
+    fig = plot.draw_iqm_curves(stats.iqm_curves(curves, reps=20), "Learning curves")
     assert len(fig.axes) == len(ENVS)
-    assert plot.learning_curves(curves, tmp_path / "curves")[0].is_file()
+    assert [len(ax.lines) for ax in fig.axes] == [2 + 2] * len(ENVS)  # two algorithms, 0 and 1
+    assert plot.save(fig, tmp_path / "curves")[0].is_file()
 
 
 def test_performance_profile_plot(tmp_path):
@@ -153,4 +154,4 @@ def test_performance_profile_plot(tmp_path):
     profile = stats.performance_profile(scores, np.linspace(0, 1, 5), reps=20)
     fig = plot.draw_performance_profile(profile)
     assert [line.get_label() for line in fig.axes[0].lines] == ["GAIfO", "GAIL*"]
-    assert plot.performance_profile_plot(profile, tmp_path / "profile")[1].is_file()
+    assert plot.save(fig, tmp_path / "profile")[1].is_file()
