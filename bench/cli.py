@@ -134,9 +134,9 @@ def _plot(args: argparse.Namespace) -> int:
 def _report(args: argparse.Namespace) -> int:
     from bench import report
 
-    for path in report.write_reports(args.results_dir, args.out, args.reps):
-        print(f"## {path}\n\n{report.tables(path)}")
-        print(f"wrote {path} (figures and aggregates.csv beside it)\n")
+    for written in report.write_reports(args.results_dir, args.out, args.reps):
+        print(f"## {written.path}\n\n{report.tables(written.aggregates, written.improvements)}")
+        print(f"wrote {written.path} (figures and aggregates.csv beside it)\n")
     return 0
 
 

@@ -18,6 +18,7 @@ import math
 import warnings
 from collections.abc import Sequence
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 import pandas as pd
@@ -42,10 +43,21 @@ METRIC_LABELS = {"mean": "mean", "median": "median", "iqm": "IQM"}
 # ---------------------------------------------------------------- entry points
 
 
+class WrittenReport(NamedTuple):
+    """A report on disk, and the aggregate tables it holds (so callers need not read them back)."""
+
+    path: Path
+    """report.md"""
+    aggregates: pd.DataFrame
+    """AGGREGATE_COLUMNS, as in aggregates.csv"""
+    improvements: pd.DataFrame
+    """IMPROVEMENT_COLUMNS, as in improvement.csv"""
+
+
 def write_reports(
     root: str | Path, out_dir: str | Path | None = None, reps: int = 2000
-) -> list[Path]:
-    """One report per suite folder under `root` (store.find_result_dirs); the report.md paths.
+) -> list[WrittenReport]:
+    """One report per suite folder under `root` (store.find_result_dirs).
 
     With several suites, `out_dir` (if given) gets one subfolder per suite, named
     as the suite's folder is under `root`.
@@ -59,8 +71,8 @@ def write_reports(
     return [write_report(d, Path(out_dir) / d.relative_to(root), reps) for d in dirs]
 
 
-def write_report(results_dir: Path, out_dir: Path | None = None, reps: int = 2000) -> Path:
-    """Write `out_dir`/report.md (default `results_dir`/report) with its figures; return its path.
+def write_report(results_dir: Path, out_dir: Path | None = None, reps: int = 2000) -> WrittenReport:
+    """Write `out_dir`/report.md (default `results_dir`/report) with its figures and CSVs.
 
     `reps` is the number of bootstrap resamples behind every interval.
     Raises FileNotFoundError when `results_dir` holds no readable trial record,
@@ -108,14 +120,11 @@ def write_report(results_dir: Path, out_dir: Path | None = None, reps: int = 200
     ]
     path = out_dir / REPORT
     path.write_text("\n\n".join(s.strip() for s in sections if s) + "\n")
-    return path
+    return WrittenReport(path, aggregates, improvements)
 
 
-def tables(report: str | Path) -> str:
-    """The aggregate and probability-of-improvement tables of a written report, as markdown."""
-    folder = Path(report).parent
-    aggregates = pd.read_csv(folder / AGGREGATES_CSV)
-    improvement = pd.read_csv(folder / IMPROVEMENT_CSV)
+def tables(aggregates: pd.DataFrame, improvement: pd.DataFrame) -> str:
+    """The aggregate and probability-of-improvement tables of a report, as markdown."""
     parts = []
     for n in sorted(set(aggregates["n_demos"]) | set(improvement["n_demos"])):
         parts.append(f"### {_demos_title(n)}")

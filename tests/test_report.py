@@ -69,7 +69,7 @@ def written(tmp_path_factory) -> Path:
     results = write_suite(tmp_path_factory.mktemp("report") / "synthetic")
     failed = trial(PENDULUM, "gaifo", 5, 4, status="failed", returns=[], curve=[])
     store.write(results, failed)
-    return report.write_report(results, reps=REPS)
+    return report.write_report(results, reps=REPS).path
 
 
 def test_report_has_every_table_and_figure(written):
@@ -167,7 +167,7 @@ def test_one_env_one_seed_no_gaifo_no_curves(tmp_path):
     for algorithm in ("random", "expert", "survival"):
         store.write(results, trial(env_id, algorithm, 0, 0))
     store.write(results, trial(env_id, "gail", 5, 0, curve=[]))
-    text = report.write_report(results, tmp_path / "out", reps=20).read_text()
+    text = report.write_report(results, tmp_path / "out", reps=20).path.read_text()
     assert "GAIfO has no scores with 5 demonstrations" in text
     assert "0.49 [0.49, 0.49]" in text  # gail: one seed, a point interval
     assert "| GAIL* | 1 × 1 |" in text
