@@ -135,17 +135,20 @@ def _report(args: argparse.Namespace) -> int:
     from bench import report
 
     for written in report.write_reports(args.results_dir, args.out, args.reps):
-        print(f"## {written.path}\n\n{report.tables(written.aggregates, written.improvements)}")
+        tables = report.tables(written.aggregates, written.improvements, written.action_users)
+        print(f"## {written.path}\n\n{tables}")
         print(f"wrote {written.path} (figures and aggregates.csv beside it)\n")
     return 0
 
 
 def _compare(args: argparse.Namespace) -> int:
-    from bench import report, stats
+    from bench import plot, report, stats
 
     run, ref = (_one_suite(args.run), _one_suite(args.reference))
-    comparison = stats.compare(*_normalized_alike(run, ref), reps=args.reps)
-    print(report.compare_table(comparison, str(args.run), str(args.reference)))
+    run_df, ref_df = _normalized_alike(run, ref)
+    comparison = stats.compare(run_df, ref_df, reps=args.reps)
+    starred = plot.action_users(run_df) | plot.action_users(ref_df)
+    print(report.compare_table(comparison, str(args.run), str(args.reference), starred))
     return 0
 
 

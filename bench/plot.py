@@ -9,7 +9,7 @@ needs no display and leaves no global state behind.
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable
+from collections.abc import Collection, Iterable
 from pathlib import Path
 
 import pandas as pd
@@ -20,7 +20,6 @@ from matplotlib.lines import Line2D
 from matplotlib.patches import Patch
 from matplotlib.ticker import EngFormatter
 
-from bench import registry
 from bench.envs import PAPER_ENVS
 from bench.normalize import REFERENCES, demo_free
 
@@ -73,16 +72,16 @@ def algorithm_colors(names: Iterable[str]) -> dict[str, tuple[float, float, floa
     return {a: palette[slots[a]] for a in order}
 
 
-def uses_actions(name: str) -> bool:
-    """Whether the algorithm sees expert actions (registry), falling back to name == 'gail'."""
-    try:
-        return registry.get(name).uses_actions
-    except (registry.RegistryError, ImportError):
-        return name == "gail"
+def action_users(df: pd.DataFrame) -> frozenset[str]:
+    """Algorithms whose records say they were given expert actions (column `inputs`)."""
+    if "inputs" not in df:
+        return frozenset()
+    return frozenset(df.loc[df["inputs"] == "actions", "algorithm"])
 
 
-def algorithm_label(name: str) -> str:
-    return LABELS.get(name, name) + ("*" if uses_actions(name) else "")
+def algorithm_label(name: str, action_users: Collection[str] = ()) -> str:
+    """Display name; a * marks an algorithm that was given expert actions."""
+    return LABELS.get(name, name) + ("*" if name in action_users else "")
 
 
 def repeat_demo_free(df: pd.DataFrame) -> pd.DataFrame:
@@ -113,6 +112,7 @@ def draw_figure2(df: pd.DataFrame) -> Figure:
     algos = algorithm_order(learners["algorithm"].unique())
     demos = sorted(learners["n_demos"].unique())
     colors = algorithm_colors(algos)
+    starred = action_users(learners)
 
     with sns.axes_style("whitegrid"), sns.plotting_context("paper"):
         fig, axes = _panels(len(envs), width=2.35, height=1.9)  # 3 across = 7 in, a page
@@ -139,9 +139,9 @@ def draw_figure2(df: pd.DataFrame) -> Figure:
             ax.grid(axis="x", visible=False)
         fig.supxlabel("Number of demonstration trajectories", fontsize="medium")
         fig.supylabel("Normalized return", fontsize="medium")
-        handles = [Patch(facecolor=colors[a], label=algorithm_label(a)) for a in algos]
+        handles = [Patch(facecolor=colors[a], label=algorithm_label(a, starred)) for a in algos]
         _legend_and_titles(
-            fig, handles, "Imitation performance vs. number of demonstrations", algos
+            fig, handles, "Imitation performance vs. number of demonstrations", starred
         )
     return fig
 
@@ -154,8 +154,9 @@ def figure2(df: pd.DataFrame, out: str | Path) -> list[Path]:
 # ---------------------------------------------------------------- later-report figures
 
 
-def draw_iqm_curves(frame: pd.DataFrame, title: str) -> Figure:
-    """Per env, IQM normalized return against env steps, band the 95% CI (from `stats.iqm_curves`)."""
+def draw_iqm_curves(frame: pd.DataFrame, title: str, action_users: Collection[str] = ()) -> Figure:
+    """Per env, IQM normalized return against env steps, band the 95% CI (from `stats.iqm_curves`).
+    `action_users` get a * in the legend."""
     envs = env_order(frame["env_id"].unique())
     algos = algorithm_order(frame["algorithm"].unique())
     colors = algorithm_colors(algos)
@@ -175,14 +176,20 @@ def draw_iqm_curves(frame: pd.DataFrame, title: str) -> Figure:
             ax.xaxis.set_major_formatter(EngFormatter(sep=""))  # 200k, 1M: no offset text
         fig.supxlabel("Environment steps", fontsize="medium")
         fig.supylabel("Normalized return (IQM)", fontsize="medium")
-        handles = [Line2D([], [], color=colors[a], label=algorithm_label(a)) for a in algos]
-        _legend_and_titles(fig, handles, title, algos)
+        starred = set(action_users) & set(algos)
+        handles = [
+            Line2D([], [], color=colors[a], label=algorithm_label(a, starred)) for a in algos
+        ]
+        _legend_and_titles(fig, handles, title, starred)
     return fig
 
 
-def draw_performance_profile(profile: pd.DataFrame, title: str | None = None) -> Figure:
+def draw_performance_profile(
+    profile: pd.DataFrame, title: str | None = None, action_users: Collection[str] = ()
+) -> Figure:
     """Score distributions from stats.performance_profile: fraction of runs above tau, with CI band.
-    With a `title`, the legend goes under the axes, off the curves (as in the report)."""
+    With a `title`, the legend goes under the axes, off the curves (as in the report).
+    `action_users` get a * in the legend."""
     algos = algorithm_order(profile["algorithm"].unique())
     colors = algorithm_colors(algos)
     with sns.axes_style("whitegrid"), sns.plotting_context("paper"):
@@ -190,13 +197,14 @@ def draw_performance_profile(profile: pd.DataFrame, title: str | None = None) ->
         ax = fig.subplots()
         for a in algos:
             rows = profile[profile["algorithm"] == a].sort_values("tau")
-            ax.plot(rows["tau"], rows["fraction"], color=colors[a], label=algorithm_label(a))
+            label = algorithm_label(a, action_users)
+            ax.plot(rows["tau"], rows["fraction"], color=colors[a], label=label)
             ax.fill_between(rows["tau"], rows["lo"], rows["hi"], color=colors[a], alpha=0.2, lw=0)
         ax.set_xlabel(r"Normalized score $\tau$")
         ax.set_ylabel(r"Fraction of runs with score $> \tau$")
         ax.set_ylim(-0.02, 1.02)  # lines at exactly 0 or 1 stay visible
         ax.legend(frameon=False)
-        if any(uses_actions(a) for a in algos):
+        if set(action_users) & set(algos):
             ax.set_title(ACTIONS_FOOTNOTE, loc="right", fontsize="small", color="0.3")
         if title is not None:
             handles, labels = ax.get_legend_handles_labels()
@@ -226,6 +234,7 @@ def summary_table(df: pd.DataFrame) -> str:
     algos = algorithm_order(df["algorithm"].unique()) + [
         a for a in REFERENCES if a in set(df["algorithm"])
     ]
+    starred = action_users(df)
     header = ["env", "algorithm"] + [_demos_header(n) for n in demos]
     lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
     for env_id in env_order(df["env_id"].unique()):
@@ -233,8 +242,9 @@ def summary_table(df: pd.DataFrame) -> str:
             if (env_id, a) not in cells.index:
                 continue
             values = cells.loc[(env_id, a), demos].tolist()
-            lines.append("| " + " | ".join([env_label(env_id), algorithm_label(a), *values]) + " |")
-    if any(uses_actions(a) for a in algos):
+            label = algorithm_label(a, starred)
+            lines.append("| " + " | ".join([env_label(env_id), label, *values]) + " |")
+    if starred:
         lines += ["", ACTIONS_FOOTNOTE]
     return "\n".join(lines) + "\n"
 
@@ -286,8 +296,9 @@ def _reference_lines(ax: Axes) -> None:
     ax.set_ylim(min(lo, -0.1), max(hi, 1.1))
 
 
-def _legend_and_titles(fig: Figure, handles: list, title: str, algos: list[str]) -> None:
-    """Suptitle on top; legend, then any footnote, under the figure.
+def _legend_and_titles(fig: Figure, handles: list, title: str, starred: Collection[str]) -> None:
+    """Suptitle on top; legend, then the footnote on expert actions if any label is `starred`,
+    under the figure.
 
     The legend hangs below the canvas (save uses bbox_inches="tight") because
     constrained layout stacks an "outside" legend on top of supxlabel/suptitle.
@@ -306,7 +317,7 @@ def _legend_and_titles(fig: Figure, handles: list, title: str, algos: list[str])
         columnspacing=1.2,
     )
     fig.suptitle(title, fontweight="bold")
-    if any(uses_actions(a) for a in algos):
+    if starred:
         fig.draw_without_rendering()  # lay out, so the legend's extent is known
         box = legend.get_window_extent().transformed(fig.transFigure.inverted())
         fig.text(

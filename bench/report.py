@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import math
 import warnings
-from collections.abc import Sequence
+from collections.abc import Collection, Sequence
 from pathlib import Path
 from typing import NamedTuple
 
@@ -52,6 +52,8 @@ class WrittenReport(NamedTuple):
     """AGGREGATE_COLUMNS, as in aggregates.csv"""
     improvements: pd.DataFrame
     """IMPROVEMENT_COLUMNS, as in improvement.csv"""
+    action_users: frozenset[str]
+    """Algorithms the records say were given expert actions (marked * in the tables)."""
 
 
 def write_reports(
@@ -84,6 +86,7 @@ def write_report(results_dir: Path, out_dir: Path | None = None, reps: int = 200
     if trials.empty:
         raise FileNotFoundError(f"no trial records in {store.trials_dir(results_dir)}")
     df = normalize(trials)
+    starred = plot.action_users(trials)
     out_dir.mkdir(parents=True, exist_ok=True)
 
     learners = plot.algorithm_order(df["algorithm"].unique())
@@ -111,8 +114,8 @@ def write_report(results_dir: Path, out_dir: Path | None = None, reps: int = 200
 
     sections = [
         _header(df, results_dir),
-        _how_to_read(learners, reps),
-        _at_a_glance(aggregates, improvements),
+        _how_to_read(learners, reps, starred),
+        _at_a_glance(aggregates, improvements, starred),
         per_env,
         *(text for text, _, _ in per_count),
         _references(df),
@@ -120,18 +123,21 @@ def write_report(results_dir: Path, out_dir: Path | None = None, reps: int = 200
     ]
     path = out_dir / REPORT
     path.write_text("\n\n".join(s.strip() for s in sections if s) + "\n")
-    return WrittenReport(path, aggregates, improvements)
+    return WrittenReport(path, aggregates, improvements, starred)
 
 
-def tables(aggregates: pd.DataFrame, improvement: pd.DataFrame) -> str:
-    """The aggregate and probability-of-improvement tables of a report, as markdown."""
+def tables(
+    aggregates: pd.DataFrame, improvement: pd.DataFrame, action_users: Collection[str] = ()
+) -> str:
+    """The aggregate and probability-of-improvement tables of a report, as markdown;
+    `action_users` (plot.action_users of the records) are marked with a *."""
     parts = []
     for n in sorted(set(aggregates["n_demos"]) | set(improvement["n_demos"])):
         parts.append(f"### {_demos_title(n)}")
-        parts.append(aggregate_table(aggregates[aggregates["n_demos"] == n]))
+        parts.append(aggregate_table(aggregates[aggregates["n_demos"] == n], action_users))
         rows = improvement[improvement["n_demos"] == n]
         if len(rows):
-            parts.append(improvement_table(rows))
+            parts.append(improvement_table(rows, action_users))
     if not parts:
         return "No aggregate statistics: no learning algorithm in these records.\n"
     return "\n\n".join(p.strip() for p in parts) + "\n"
@@ -164,7 +170,7 @@ def load_iqm_curves(results_dir: Path, trials: pd.DataFrame, reps: int = 2000) -
 # ---------------------------------------------------------------- markdown
 
 
-def aggregate_table(aggregates: pd.DataFrame) -> str:
+def aggregate_table(aggregates: pd.DataFrame, action_users: Collection[str] = ()) -> str:
     """Markdown: a row per algorithm, a column per metric, each `estimate [lo, hi]`.
 
     `aggregates`: stats.aggregate_scores rows of one demo count, plus seeds and envs columns.
@@ -179,25 +185,32 @@ def aggregate_table(aggregates: pd.DataFrame) -> str:
         first = cells.loc[(a, metrics[0])]
         runs = f"{int(first['seeds'])} × {int(first['envs'])}"
         values = [_interval(*cells.loc[(a, m), ["estimate", "lo", "hi"]]) for m in metrics]
-        lines.append(_row([plot.algorithm_label(a), runs, *values]))
+        lines.append(_row([plot.algorithm_label(a, action_users), runs, *values]))
     return "\n".join(lines) + "\n"
 
 
-def improvement_table(improvement: pd.DataFrame) -> str:
+def improvement_table(improvement: pd.DataFrame, action_users: Collection[str] = ()) -> str:
     """Markdown: P(target > other) [95% CI], a row per other algorithm."""
-    target = plot.algorithm_label(improvement["algorithm"].iloc[0])
+    target = plot.algorithm_label(improvement["algorithm"].iloc[0], action_users)
     header = [f"{target} vs", f"P({target} > other) [95% CI]"]
     lines = [_row(header), "|---|---|"]
     rows = improvement.set_index("other")
     for other in _in_order(improvement["other"]):
         r = rows.loc[other]
         lines.append(
-            _row([plot.algorithm_label(other), _interval(r["estimate"], r["lo"], r["hi"])])
+            _row(
+                [
+                    plot.algorithm_label(other, action_users),
+                    _interval(r["estimate"], r["lo"], r["hi"]),
+                ]
+            )
         )
     return "\n".join(lines) + "\n"
 
 
-def compare_table(comparison: pd.DataFrame, run: str, reference: str) -> str:
+def compare_table(
+    comparison: pd.DataFrame, run: str, reference: str, action_users: Collection[str] = ()
+) -> str:
     """Markdown: per env, algorithm and demo count, IQM [95% CI] of the run and the reference,
     their difference and the verdict (stats.compare); then how many rows agree."""
     header = ["env", "algorithm", "demos", f"run ({run})", f"reference ({reference})"]
@@ -217,7 +230,7 @@ def compare_table(comparison: pd.DataFrame, run: str, reference: str) -> str:
             _row(
                 [
                     plot.env_label(r["env_id"]),
-                    plot.algorithm_label(r["algorithm"]),
+                    plot.algorithm_label(r["algorithm"], action_users),
                     r["n_demos"],
                     _interval(r["run_iqm"], r["run_lo"], r["run_hi"]) + f" ({r['run_seeds']})",
                     _interval(r["ref_iqm"], r["ref_lo"], r["ref_hi"]) + f" ({r['ref_seeds']})",
@@ -247,12 +260,14 @@ def _header(df: pd.DataFrame, results_dir: Path) -> str:
     seeds = _range_text(per_cell) if len(per_cell) else "0"
     failed = df[df["status"] != "ok"]
     counts = [int(n) for n in sorted(df.loc[df["n_demos"] > 0, "n_demos"].unique())]
+    starred = plot.action_users(df)
+    label = lambda a: plot.algorithm_label(a, starred)  # noqa: E731
     rows = [
         ("suite", suites),
         ("results", f"`{results_dir}`"),
         ("envs", ", ".join(f"{plot.env_label(e)} (`{e}`)" for e in envs)),
-        ("learners", ", ".join(map(plot.algorithm_label, learners)) or "none"),
-        ("references", ", ".join(map(plot.algorithm_label, references)) or "none"),
+        ("learners", ", ".join(map(label, learners)) or "none"),
+        ("references", ", ".join(map(label, references)) or "none"),
         ("demonstrations", ", ".join(map(str, counts)) or "none"),
         ("seeds per cell", f"{seeds} (ok trials per env, algorithm and demo count)"),
         ("trials", f"{len(df)} ({len(failed)} failed)"),
@@ -264,7 +279,7 @@ def _header(df: pd.DataFrame, results_dir: Path) -> str:
     if len(failed):
         lines += ["", "Failed trials, left out of every statistic:", ""]
         lines += [
-            f"- {plot.env_label(r.env_id)}, {plot.algorithm_label(r.algorithm)}, "
+            f"- {plot.env_label(r.env_id)}, {label(r.algorithm)}, "
             f"{_demos_title(r.n_demos).lower()}, seed {r.seed}"
             for r in failed.head(MAX_LISTED).itertuples()
         ]
@@ -273,7 +288,7 @@ def _header(df: pd.DataFrame, results_dir: Path) -> str:
     return "\n".join(lines)
 
 
-def _how_to_read(learners: Sequence[str], reps: int) -> str:
+def _how_to_read(learners: Sequence[str], reps: int, action_users: Collection[str]) -> str:
     items = [
         "**Normalized score**: per env, 0 is the mean return of the random policy and 1 that of "
         "the expert that recorded the demonstrations (raw returns in the last section), so envs "
@@ -299,7 +314,7 @@ def _how_to_read(learners: Sequence[str], reps: int) -> str:
             "alive, so the same runs appear at every demonstration count. A learner that does "
             "not beat it has not shown that it learned from the demonstrations."
         )
-    if any(plot.uses_actions(a) for a in learners):
+    if set(action_users) & set(learners):
         items.append(
             "**\\*** marks algorithms that see the expert's actions, which imitation from "
             "observation does not."
@@ -312,7 +327,9 @@ def _how_to_read(learners: Sequence[str], reps: int) -> str:
     )
 
 
-def _at_a_glance(aggregates: pd.DataFrame, improvement: pd.DataFrame) -> str:
+def _at_a_glance(
+    aggregates: pd.DataFrame, improvement: pd.DataFrame, action_users: Collection[str]
+) -> str:
     """IQM of every learner, and GAIfO's probability of improvement, across demo counts."""
     if aggregates.empty:
         return ""
@@ -326,9 +343,9 @@ def _at_a_glance(aggregates: pd.DataFrame, improvement: pd.DataFrame) -> str:
             _interval(*iqm.loc[(a, n), ["estimate", "lo", "hi"]]) if (a, n) in iqm.index else ""
             for n in counts
         ]
-        lines.append(_row([plot.algorithm_label(a), *cells]))
+        lines.append(_row([plot.algorithm_label(a, action_users), *cells]))
     if len(improvement):
-        target = plot.algorithm_label(improvement["algorithm"].iloc[0])
+        target = plot.algorithm_label(improvement["algorithm"].iloc[0], action_users)
         pi = improvement.set_index(["other", "n_demos"])
         lines += ["", _row([f"P({target} > other) [95% CI]", *columns]), rule]
         for other in _in_order(improvement["other"]):
@@ -338,7 +355,7 @@ def _at_a_glance(aggregates: pd.DataFrame, improvement: pd.DataFrame) -> str:
                 else ""
                 for n in counts
             ]
-            lines.append(_row([f"vs {plot.algorithm_label(other)}", *cells]))
+            lines.append(_row([f"vs {plot.algorithm_label(other, action_users)}", *cells]))
     return "\n".join(lines)
 
 
@@ -382,6 +399,7 @@ def _costs(df: pd.DataFrame) -> str:
         "| env | algorithm | budget (env steps) | trials | wall time per trial | core-hours |",
         "|---|---|---:|---:|---:|---:|",
     ]
+    starred = plot.action_users(df)
     for env_id in plot.env_order(ok["env_id"].unique()):
         rows = ok[ok["env_id"] == env_id]
         for algorithm in _in_order(rows["algorithm"]):
@@ -391,7 +409,7 @@ def _costs(df: pd.DataFrame) -> str:
                 _row(
                     [
                         plot.env_label(env_id),
-                        plot.algorithm_label(algorithm),
+                        plot.algorithm_label(algorithm, starred),
                         budget,
                         len(cell),
                         _duration(cell["wall_time"].mean()),
@@ -409,6 +427,7 @@ def _demo_section(
     title = _demos_title(n)
     parts = [f"## {title}"]
     names = competitors(df, n)
+    starred = plot.action_users(df)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         try:
@@ -432,28 +451,30 @@ def _demo_section(
         parts += [
             "### Aggregate normalized score",
             f"{pooled}; brackets are 95% bootstrap CIs.",
-            aggregate_table(aggregate),
+            aggregate_table(aggregate, starred),
         ]
         parts.append("### Probability of improvement")
         if TARGET not in scores:
             parts.append(
-                f"{plot.algorithm_label(TARGET)} has no scores with {title.lower()}: "
+                f"{plot.algorithm_label(TARGET, starred)} has no scores with {title.lower()}: "
                 "no probability of improvement to report."
             )
         elif len(scores) == 1:
             parts.append(
-                f"{plot.algorithm_label(TARGET)} is the only learner here: nothing to compare."
+                f"{plot.algorithm_label(TARGET, starred)} is the only learner here: nothing to compare."
             )
         else:
             improvement = stats.probability_of_improvement(scores, TARGET, reps=reps)
-            parts.append(improvement_table(improvement))
+            parts.append(improvement_table(improvement, starred))
 
         everything = np.concatenate([s.ravel() for s in scores.values()])
         taus = np.linspace(min(0.0, everything.min()), max(1.0, everything.max()), TAUS)
         profile = stats.performance_profile(scores, taus, reps=reps)
         name = f"profile_{n}demos"
         plot.save(
-            plot.draw_performance_profile(profile, f"Performance profile, {title.lower()}"),
+            plot.draw_performance_profile(
+                profile, f"Performance profile, {title.lower()}", starred
+            ),
             out_dir / name,
         )
         parts += [
@@ -462,7 +483,10 @@ def _demo_section(
             f"![Performance profile, {title.lower()}]({name}.png)",
         ]
 
-    parts += ["### Learning curves", _curves_section(curves, names, n, title, out_dir)]
+    parts += [
+        "### Learning curves",
+        _curves_section(curves, names, n, title, out_dir, starred),
+    ]
     return (
         "\n\n".join(p.strip() for p in parts),
         aggregate.assign(n_demos=n) if len(aggregate) else aggregate,
@@ -471,7 +495,12 @@ def _demo_section(
 
 
 def _curves_section(
-    curves: pd.DataFrame | str, names: list[str], n: int, title: str, out_dir: Path
+    curves: pd.DataFrame | str,
+    names: list[str],
+    n: int,
+    title: str,
+    out_dir: Path,
+    action_users: Collection[str],
 ) -> str:
     if isinstance(curves, str):
         return f"No learning curves: {curves}."
@@ -482,10 +511,13 @@ def _curves_section(
     missing = [a for a in names if a not in set(frame["algorithm"])]
     if missing:
         text = (
-            f"No learning curve recorded for {', '.join(map(plot.algorithm_label, missing))}.\n\n"
+            "No learning curve recorded for "
+            + ", ".join(plot.algorithm_label(a, action_users) for a in missing)
+            + ".\n\n"
         )
     name = f"curves_{n}demos"
-    plot.save(plot.draw_iqm_curves(frame, f"Learning curves, {title.lower()}"), out_dir / name)
+    figure = plot.draw_iqm_curves(frame, f"Learning curves, {title.lower()}", action_users)
+    plot.save(figure, out_dir / name)
     return (
         text + "Normalized return at each evaluation during training: IQM over seeds, "
         "band: 95% CI.\n\n" + f"![Learning curves, {title.lower()}]({name}.png)"

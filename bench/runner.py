@@ -116,9 +116,11 @@ def run_trial(spec: TrialSpec, inputs: Any, device: str = "cpu") -> TrialResult:
     eval_seed = EVAL_SEED + 1000 * spec.seed
     eval_envs: list[gym.Env] = []
     logger = TrialLogger(eval_envs, eval_seed, every=max(1, spec.budget // CURVE_POINTS))
+    given = None
     try:
         torch.manual_seed(spec.seed)
         algo = registry.get(spec.algorithm)
+        given = algo.inputs
         eval_envs += [
             envs.make(spec.env_id, eval_seed + i) for i in range(min(10, spec.eval_episodes))
         ]
@@ -144,6 +146,7 @@ def run_trial(spec: TrialSpec, inputs: Any, device: str = "cpu") -> TrialResult:
         versions=versions(),
         traceback=tb,
         logs=logger.logs,
+        inputs=given,
     )
 
 

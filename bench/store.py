@@ -33,6 +33,7 @@ STALE_TMP_SECONDS = 600.0
 SPEC_COLUMNS = ["suite", "env_id", "algorithm", "n_demos", "seed", "budget"]
 TRIAL_COLUMNS = [
     *SPEC_COLUMNS,
+    "inputs",
     "trial_id",
     "status",
     "return",
@@ -40,7 +41,7 @@ TRIAL_COLUMNS = [
     "env_steps",
     "wall_time",
 ]
-CURVE_COLUMNS = ["trial_id", *SPEC_COLUMNS, "env_steps", "return"]
+CURVE_COLUMNS = ["trial_id", *SPEC_COLUMNS, "inputs", "env_steps", "return"]
 LOG_COLUMNS = ["trial_id", *SPEC_COLUMNS, "key", "index", "value"]
 
 
@@ -74,6 +75,7 @@ def read(path: str | Path) -> TrialResult:
         versions=raw["versions"],
         traceback=raw.get("traceback"),
         logs={k: [_float(v) for v in vs] for k, vs in raw.get("logs", {}).items()},
+        inputs=raw.get("inputs"),
     )
 
 
@@ -90,7 +92,7 @@ def load_curves(results_dir: str | Path) -> pd.DataFrame:
     would change the number of seeds behind each point along the curve.
     """
     rows = [
-        {**_spec_row(r), "env_steps": p.env_steps, "return": p.mean_return}
+        {**_spec_row(r), "inputs": r.inputs, "env_steps": p.env_steps, "return": p.mean_return}
         for r in scan(results_dir)
         if r.status == "ok"
         for p in r.curve
@@ -165,6 +167,7 @@ def _trial_row(r: TrialResult) -> dict[str, Any]:
     ok = r.status == "ok" and returns.size > 0
     return {
         **_spec_row(r),
+        "inputs": r.inputs,
         "status": r.status,
         "return": float(returns.mean()) if ok else math.nan,
         "return_std": float(returns.std()) if ok else math.nan,

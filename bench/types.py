@@ -129,6 +129,9 @@ class TrialResult:
     traceback: str | None = None
     logs: dict[str, list[float]] = field(default_factory=dict)
     """Algorithm diagnostics over training, e.g. discriminator loss and accuracy."""
+    inputs: str | None = None
+    """What the algorithm was given: "none", "states", "actions" or "expert" (its registry
+    entry's `inputs`), so figures can mark action users from the records alone."""
 
     @property
     def trial_id(self) -> str:

@@ -2,31 +2,16 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
 import pandas as pd
 import pytest
 from matplotlib.patches import Rectangle
 
-from bench import plot, registry, stats
+from bench import plot, stats
 
 ENVS = ["HopperBulletEnv-v0", "InvertedPendulumBulletEnv-v0"]  # Pendulum comes first in the paper
 DEMOS = [1, 10]
 SEEDS = [0, 1, 2]
-
-
-@dataclass
-class NoConfig:
-    pass
-
-
-@pytest.fixture(autouse=True)
-def algorithms(monkeypatch):
-    """gail uses expert actions (registry); gaifo is left unregistered to exercise the fallback."""
-    monkeypatch.setattr(registry, "_loaded", True)
-    monkeypatch.setattr(registry, "_ALGORITHMS", {})
-    registry.register("gail", config=NoConfig, inputs="actions")(lambda *a: None)
 
 
 def frame() -> pd.DataFrame:
@@ -40,7 +25,8 @@ def frame() -> pd.DataFrame:
                 rows.append((env_id, "gaifo", n, seed, 0.05 * n + 0.1 * seed))
                 rows.append((env_id, "gail", n, seed, 0.06 * n + 0.1 * seed))
     df = pd.DataFrame(rows, columns=["env_id", "algorithm", "n_demos", "seed", "normalized"])
-    return df.assign(**{"return": 100 * df["normalized"]})
+    inputs = df["algorithm"].map({"random": "none", "expert": "expert", "gail": "actions"})
+    return df.assign(**{"return": 100 * df["normalized"], "inputs": inputs.fillna("states")})
 
 
 def test_figure2_panels_bars_and_labels():
@@ -152,6 +138,6 @@ def test_iqm_learning_curves(tmp_path):
 def test_performance_profile_plot(tmp_path):
     scores = {"gaifo": np.arange(1, 9).reshape(4, 2) / 8, "gail": np.full((4, 2), 0.5)}
     profile = stats.performance_profile(scores, np.linspace(0, 1, 5), reps=20)
-    fig = plot.draw_performance_profile(profile)
+    fig = plot.draw_performance_profile(profile, action_users={"gail"})
     assert [line.get_label() for line in fig.axes[0].lines] == ["GAIfO", "GAIL*"]
     assert plot.save(fig, tmp_path / "profile")[1].is_file()

@@ -43,6 +43,7 @@ def trial(env_id: str, algorithm: str, n_demos: int, seed: int, **changes) -> Tr
         env_steps=BUDGET,
         wall_time=12.5,
         versions={"ifo-bench": "test"},
+        inputs={"random": "none", "expert": "expert", "gail": "actions"}.get(algorithm, "states"),
     )
     return TrialResult(**(fields | changes))
 

@@ -104,6 +104,11 @@ def test_dask_backend_matches_loky(tmp_path):
     a, b = store.load(tmp_path / "loky"), store.load(tmp_path / "dask")
     np.testing.assert_array_equal(a["return"].to_numpy(), b["return"].to_numpy())
     np.testing.assert_array_equal(a["env_steps"].to_numpy(), b["env_steps"].to_numpy())
+    # Each record says what its algorithm was given, so figures need no registry.
+    assert dict(zip(a["algorithm"], a["inputs"], strict=True)) == {
+        "random": "none",
+        "gaifo": "states",
+    }
 
 
 def test_failing_trial_is_recorded_and_retried(tmp_path):
