@@ -1,4 +1,6 @@
 import os
+import subprocess
+import sys
 
 import pytest
 import torch
@@ -22,3 +24,22 @@ def module_cache(tmp_path_factory):
     mp.setattr("bench.paths.CACHE_DIR", root)
     yield root
     mp.undo()
+
+
+def _bench_cli(*args: str, **kw) -> subprocess.CompletedProcess:
+    return subprocess.run(
+        [sys.executable, "-m", "bench.cli", *args], capture_output=True, text=True, **kw
+    )
+
+
+@pytest.fixture(scope="session")
+def cli():
+    """`cli("run", suite, ...)` runs the bench command in a subprocess, as a user would."""
+    return _bench_cli
+
+
+@pytest.fixture()
+def demo_cache(tmp_path, monkeypatch):
+    """A private demo cache per test, for this process and any bench subprocess it starts."""
+    monkeypatch.setenv("IFO_BENCH_CACHE", str(tmp_path / "cache"))
+    monkeypatch.setattr("bench.paths.CACHE_DIR", tmp_path / "cache")

@@ -1,7 +1,5 @@
 """Bad input at the command line: one clear line, exit status 2, results untouched."""
 
-import subprocess
-import sys
 from pathlib import Path
 
 import pytest
@@ -12,18 +10,12 @@ GOOD = (
 )
 
 
-def bench(*args: str) -> subprocess.CompletedProcess:
-    return subprocess.run(
-        [sys.executable, "-m", "bench.cli", *args], capture_output=True, text=True
-    )
-
-
 @pytest.fixture(scope="module")
-def finished_results(tmp_path_factory) -> Path:
+def finished_results(tmp_path_factory, cli) -> Path:
     """A results folder holding real records, which no bad command may touch."""
     root = tmp_path_factory.mktemp("cli")
     (root / "good.yaml").write_text("name: good\n" + GOOD)
-    out = bench("run", str(root / "good.yaml"), "--results", str(root / "res"), "--jobs", "1")
+    out = cli("run", str(root / "good.yaml"), "--results", str(root / "res"), "--jobs", "1")
     assert out.returncode == 0, out.stderr
     return root / "res"
 
@@ -51,12 +43,12 @@ BAD_SUITES = {
 
 
 @pytest.mark.parametrize("case", sorted(BAD_SUITES))
-def test_bad_suite_is_one_line_exit_2_and_touches_nothing(case, finished_results, tmp_path):
+def test_bad_suite_is_one_line_exit_2_and_touches_nothing(case, finished_results, tmp_path, cli):
     body, needle = BAD_SUITES[case]
     suite = tmp_path / "bad.yaml"
     suite.write_text(body)
     before = snapshot(finished_results)
-    out = bench("run", str(suite), "--results", str(finished_results))
+    out = cli("run", str(suite), "--results", str(finished_results))
     assert out.returncode == 2
     lines = out.stderr.strip().splitlines()
     assert len(lines) == 1 and "Traceback" not in out.stderr, out.stderr
@@ -64,43 +56,41 @@ def test_bad_suite_is_one_line_exit_2_and_touches_nothing(case, finished_results
     assert snapshot(finished_results) == before
 
 
-def test_run_of_an_env_not_in_the_suite(finished_results, tmp_path):
+def test_run_of_an_env_not_in_the_suite(finished_results, tmp_path, cli):
     suite = tmp_path / "good.yaml"
     suite.write_text("name: good\n" + GOOD)
     before = snapshot(finished_results)
-    out = bench(
-        "run", str(suite), "--results", str(finished_results), "--env", "HopperBulletEnv-v0"
-    )
+    out = cli("run", str(suite), "--results", str(finished_results), "--env", "HopperBulletEnv-v0")
     assert out.returncode == 2 and out.stderr.count("\n") == 1, out.stderr
     assert "HopperBulletEnv-v0" in out.stderr and "envs" in out.stderr
     assert snapshot(finished_results) == before
 
 
-def test_missing_suite_file():
-    out = bench("run", "no/such/suite.yaml")
+def test_missing_suite_file(cli):
+    out = cli("run", "no/such/suite.yaml")
     assert (
         out.returncode == 2 and out.stderr.count("\n") == 1 and "no/such/suite.yaml" in out.stderr
     )
 
 
-def test_plot_without_reference_trials_names_what_is_missing(tmp_path):
+def test_plot_without_reference_trials_names_what_is_missing(tmp_path, cli):
     (tmp_path / "s.yaml").write_text("name: s\n" + GOOD.replace("[random, expert]", "[random]"))
     assert (
-        bench(
+        cli(
             "run", str(tmp_path / "s.yaml"), "--results", str(tmp_path / "res"), "--jobs", "1"
         ).returncode
         == 0
     )
-    out = bench("plot", str(tmp_path / "res"))
+    out = cli("plot", str(tmp_path / "res"))
     assert out.returncode == 2 and "expert" in out.stderr and out.stderr.count("\n") == 1
 
 
-def test_plot_of_missing_dir():
-    out = bench("plot", "no/such/results")
+def test_plot_of_missing_dir(cli):
+    out = cli("plot", "no/such/results")
     assert out.returncode == 2 and "no/such/results" in out.stderr
 
 
-def test_help_of_every_command():
+def test_help_of_every_command(cli):
     for args in (
         ["--help"],
         ["run", "--help"],
@@ -108,7 +98,7 @@ def test_help_of_every_command():
         ["list", "--help"],
         ["experts", "train", "--help"],
     ):
-        out = bench(*args)
+        out = cli(*args)
         assert out.returncode == 0 and "usage: bench" in out.stdout
 
 
@@ -116,8 +106,8 @@ def test_help_of_every_command():
     ("hyperparams", "message"),
     [('{"hiden": [128]}', "TRPOConfig has no field 'hiden'"), ("[1]", "must be a JSON object")],
 )
-def test_expert_hyperparams_are_checked_before_training(hyperparams, message, tmp_path):
-    out = bench(
+def test_expert_hyperparams_are_checked_before_training(hyperparams, message, tmp_path, cli):
+    out = cli(
         "experts", "train", PENDULUM, "--hyperparams", hyperparams, "--out", str(tmp_path / "x")
     )
     assert out.returncode == 2 and message in out.stderr

@@ -2,8 +2,6 @@
 
 import dataclasses
 import shutil
-import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -12,12 +10,6 @@ import pytest
 from bench import stats, store
 
 REFERENCE = Path(__file__).parents[1] / "results" / "quick"
-
-
-def bench(*args: str) -> subprocess.CompletedProcess:
-    return subprocess.run(
-        [sys.executable, "-m", "bench.cli", *args], capture_output=True, text=True
-    )
 
 
 def verdicts(stdout: str) -> dict[tuple[str, str, str], str]:
@@ -47,16 +39,16 @@ def test_iqm_difference_of_identical_and_shifted_samples():
     assert shifted["diff"] == pytest.approx(-0.5) and shifted["diff_hi"] < 0
 
 
-def test_identical_folders_agree(tmp_path):
+def test_identical_folders_agree(tmp_path, cli):
     run = tmp_path / "run"
     shutil.copytree(REFERENCE, run)
-    out = bench("compare", str(run), str(REFERENCE), "--reps", "500")
+    out = cli("compare", str(run), str(REFERENCE), "--reps", "500")
     assert out.returncode == 0, out.stderr
     found = verdicts(out.stdout)
     assert gaifo_rows(found) and set(found.values()) == {"agrees"}
 
 
-def test_gaifo_at_random_level_differs(tmp_path):
+def test_gaifo_at_random_level_differs(tmp_path, cli):
     run = tmp_path / "run"
     shutil.copytree(REFERENCE, run)
     records = store.load(run)
@@ -70,14 +62,14 @@ def test_gaifo_at_random_level_differs(tmp_path):
         return dataclasses.replace(result, returns=[level] * len(result.returns))
 
     rewrite(run, to_random_level)
-    out = bench("compare", str(run), str(REFERENCE), "--reps", "500")
+    out = cli("compare", str(run), str(REFERENCE), "--reps", "500")
     assert out.returncode == 0, out.stderr
     found = verdicts(out.stdout)
     assert len(gaifo_rows(found)) >= 2 and set(gaifo_rows(found).values()) == {"differs"}
     assert {v for key, v in found.items() if key[1] != "GAIfO"} == {"agrees"}
 
 
-def test_folders_without_overlap_give_one_line(tmp_path):
+def test_folders_without_overlap_give_one_line(tmp_path, cli):
     run = tmp_path / "run"
     shutil.copytree(REFERENCE, run)
     rewrite(
@@ -87,7 +79,7 @@ def test_folders_without_overlap_give_one_line(tmp_path):
         ),
     )
     before = sorted(p.read_bytes() for p in store.trials_dir(run).iterdir())
-    out = bench("compare", str(run), str(REFERENCE))
+    out = cli("compare", str(run), str(REFERENCE))
     assert out.returncode == 2
     assert out.stderr.count("\n") == 1 and "share no env" in out.stderr
     assert sorted(p.read_bytes() for p in store.trials_dir(run).iterdir()) == before

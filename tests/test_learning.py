@@ -14,9 +14,7 @@ PENDULUM = "InvertedPendulumBulletEnv-v0"
 SEEDS = [0, 1, 2, 3, 4, 5]
 
 
-@pytest.fixture(autouse=True)
-def demo_cache(tmp_path, monkeypatch):
-    monkeypatch.setattr("bench.paths.CACHE_DIR", tmp_path / "cache")
+pytestmark = pytest.mark.usefixtures("demo_cache")
 
 
 def run(tmp_path, body: str):

@@ -13,9 +13,7 @@ PENDULUM = "InvertedPendulumBulletEnv-v0"
 README = Path(__file__).resolve().parent.parent / "README.md"
 
 
-@pytest.fixture(autouse=True)
-def demo_cache(tmp_path, monkeypatch):
-    monkeypatch.setattr("bench.paths.CACHE_DIR", tmp_path / "cache")
+pytestmark = pytest.mark.usefixtures("demo_cache")
 
 
 def spec(algorithm: str, budget: int = 4096, **hp) -> TrialSpec:

@@ -25,19 +25,10 @@ def write_suite(folder: Path, name: str, body: str) -> Path:
     return path
 
 
-def bench(*args: str, **kw) -> subprocess.CompletedProcess:
-    return subprocess.run(
-        [sys.executable, "-m", "bench.cli", *args], capture_output=True, text=True, **kw
-    )
+pytestmark = pytest.mark.usefixtures("demo_cache")
 
 
-@pytest.fixture(autouse=True)
-def demo_cache(tmp_path, monkeypatch):
-    monkeypatch.setenv("IFO_BENCH_CACHE", str(tmp_path / "cache"))
-    monkeypatch.setattr("bench.paths.CACHE_DIR", tmp_path / "cache")
-
-
-def test_killed_run_resumes_without_losing_or_duplicating(tmp_path):
+def test_killed_run_resumes_without_losing_or_duplicating(tmp_path, cli):
     suite = write_suite(
         tmp_path,
         "kill",
@@ -70,7 +61,7 @@ def test_killed_run_resumes_without_losing_or_duplicating(tmp_path):
     for data in before.values():
         json.loads(data)  # every record on disk is whole
 
-    out = bench("run", str(suite), "--results", str(results), "--jobs", "2")
+    out = cli("run", str(suite), "--results", str(results), "--jobs", "2")
     assert out.returncode == 0, out.stderr
     assert f"{len(before)} already finished" in out.stdout
     after = {p.name: p.read_bytes() for p in (results / "trials").glob("*.json")}
@@ -111,7 +102,7 @@ def test_dask_backend_matches_loky(tmp_path):
     }
 
 
-def test_failing_trial_is_recorded_and_retried(tmp_path):
+def test_failing_trial_is_recorded_and_retried(tmp_path, cli):
     suite = write_suite(
         tmp_path,
         "fail",
@@ -119,7 +110,7 @@ def test_failing_trial_is_recorded_and_retried(tmp_path):
     )
     results = tmp_path / "res"
     # survival's first batch (8 x 256 steps) is bigger than the budget: TRPO refuses to start.
-    out = bench("run", str(suite), "--results", str(results), "--jobs", "1")
+    out = cli("run", str(suite), "--results", str(results), "--jobs", "1")
     assert out.returncode == 1
     assert "1 trials done, 1 failed" in out.stdout
     df = store.load(results)
@@ -127,13 +118,13 @@ def test_failing_trial_is_recorded_and_retried(tmp_path):
     assert list(failed.algorithm) == ["survival"]
     record = store.read(store.record_path(results, failed.trial_id.iloc[0]))
     assert "less than one TRPO batch" in record.traceback
-    out = bench("run", str(suite), "--results", str(results), "--jobs", "1")
+    out = cli("run", str(suite), "--results", str(results), "--jobs", "1")
     assert "0 trials done, 0 failed, 2 already finished" in out.stdout
-    out = bench("run", str(suite), "--results", str(results), "--jobs", "1", "--retry-failed")
+    out = cli("run", str(suite), "--results", str(results), "--jobs", "1", "--retry-failed")
     assert "0 trials done, 1 failed, 1 already finished" in out.stdout
 
 
-def test_plugin_algorithm_through_an_entry_point(tmp_path):
+def test_plugin_algorithm_through_an_entry_point(tmp_path, cli):
     pkg = tmp_path / "plugin_src"
     (pkg / "zero_ifo").mkdir(parents=True)
     (pkg / "pyproject.toml").write_text(
@@ -167,14 +158,14 @@ def test_plugin_algorithm_through_an_entry_point(tmp_path):
         capture_output=True,
     )
     env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(site), *sys.path])}
-    listed = bench("list", env=env)
+    listed = cli("list", env=env)
     assert "zero" in listed.stdout and "always the zero action" in listed.stdout
     suite = write_suite(
         tmp_path,
         "plug",
         f"envs: {{{PENDULUM}: {{budget: 1000}}}}\ndemos: [1]\nalgorithms: [{{zero: {{scale: 0.1}}}}]\nseeds: 1\neval_episodes: 1\n",
     )
-    out = bench("run", str(suite), "--results", str(tmp_path / "res"), "--jobs", "1", env=env)
+    out = cli("run", str(suite), "--results", str(tmp_path / "res"), "--jobs", "1", env=env)
     assert out.returncode == 0, out.stderr
     assert store.load(tmp_path / "res").algorithm.tolist() == ["zero"]
 
