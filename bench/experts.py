@@ -27,6 +27,10 @@ from bench.rl.rollout import evaluate
 from bench.rl.trpo import TRPO, TRPOConfig, train
 
 EVAL_EPISODES = 50
+CHECKPOINT = "checkpoint.pt"
+"""Training progress, in the expert's folder until the expert is saved (not shipped)."""
+CHECKPOINT_SECONDS = 120.0
+"""How often a training run saves its progress: a killed run loses at most this much."""
 
 
 class ExpertError(FileNotFoundError):
@@ -92,22 +96,56 @@ def train_expert(
     out_dir: Path | None = None,
     progress: bool = True,
     command: str | None = None,
+    checkpoint_every: float = CHECKPOINT_SECONDS,
 ) -> dict:
     """Train a TRPO expert on the env reward, keep the better of final and best-seen, save it.
 
     `command` (the command line that asked for it) is kept in meta.json, so an expert says how
-    to train it again.
+    to train it again. Progress goes to `CHECKPOINT` in the output folder every
+    `checkpoint_every` seconds; started again with the same settings, training resumes from
+    it (with fresh episodes, so not bit for bit the run it would have been), and the file is
+    removed once the expert is saved.
     """
     cfg = cfg or TRPOConfig()
+    out = out_dir or paths.expert_dir(env_id)
     obs_dim, act_dim, low, high = envs.spaces(env_id)
-    start = time.time()
-    recent: list[float] = []
+    settings = json.dumps({"env_id": env_id, "steps": steps, "seed": seed, "cfg": asdict(cfg)})
+    learner = TRPO(obs_dim, act_dim, cfg, seed)
+    run = {"steps": 0, "wall_time_s": 0.0, "resumes": 0, "recent": []}
     best = {"score": -np.inf, "state": None, "steps": 0}
+    if (out / CHECKPOINT).exists():
+        saved = torch.load(out / CHECKPOINT, weights_only=True)
+        if saved["settings"] != settings:
+            raise ExpertError(
+                f"{out / CHECKPOINT} is from a training run with other settings: "
+                "rerun that command to resume it, or delete the file to start afresh"
+            )
+        learner.load_state_dict(saved["learner"])
+        run, best = saved["run"], saved["best"]
+        run["resumes"] += 1
+    start, last_save = time.time() - run["wall_time_s"], time.time()
+    recent: list[float] = run["recent"]
     bar = tqdm(
-        total=steps, desc=f"expert {env_id}", unit="step", disable=not progress, smoothing=0.05
+        total=steps,
+        initial=run["steps"],
+        desc=f"expert {env_id}",
+        unit="step",
+        disable=not progress,
+        smoothing=0.05,
     )
 
+    def save_checkpoint() -> None:
+        run.update(wall_time_s=time.time() - start, recent=recent)
+        state = {"settings": settings, "learner": learner.state_dict(), "run": run, "best": best}
+        buf = io.BytesIO()
+        torch.save(state, buf)
+        atomic.write_bytes(out / CHECKPOINT, buf.getvalue())
+
+    done_before = run["steps"]
+
     def on_update(n: int, learner: TRPO, batch, info: dict) -> None:
+        nonlocal last_save
+        run["steps"] = done_before + n
         recent.extend(batch.episode_returns)
         del recent[:-20]
         # Snapshot the best training return seen: TRPO sometimes slips late in a run.
@@ -115,12 +153,24 @@ def train_expert(
             best.update(
                 score=float(np.mean(recent)),
                 state=copy.deepcopy(learner.policy.state_dict()),
-                steps=n,
+                steps=run["steps"],
             )
         bar.update(batch.n_steps)
         bar.set_postfix(ret=f"{np.mean(recent):.0f}" if recent else "-")
+        if time.time() - last_save >= checkpoint_every:
+            save_checkpoint()
+            last_save = time.time()
 
-    learner = train(lambda s: envs.make(env_id, s), steps, seed, cfg, callback=on_update)
+    if steps - done_before >= cfg.batch_size:
+        # A resumed run steps envs of other seeds than the first: no episode is replayed.
+        make_env = lambda s: envs.make(env_id, s)  # noqa: E731
+        train(
+            make_env,
+            steps - done_before,
+            seed + run["resumes"],
+            callback=on_update,
+            learner=learner,
+        )
     bar.close()
     candidates = [("final", copy.deepcopy(learner.policy.state_dict()), steps)]
     if best["state"] is not None:
@@ -147,6 +197,7 @@ def train_expert(
         "snapshot_steps": at,
         "seed": seed,
         "wall_time_s": round(time.time() - start, 1),
+        "resumes": run["resumes"],
         "package_version": bench.__version__,
         "torch_version": torch.__version__,
         "trpo_config": {k: list(v) if isinstance(v, tuple) else v for k, v in asdict(cfg).items()},
@@ -154,5 +205,6 @@ def train_expert(
         "return_mean": round(mean, 2),
         "return_std": round(std, 2),
     }
-    save_expert(env_id, policy, meta, out_dir)
+    save_expert(env_id, policy, meta, out)
+    (out / CHECKPOINT).unlink(missing_ok=True)
     return meta

@@ -1,7 +1,11 @@
 import dataclasses
+import subprocess
+import sys
+import time
 
 import numpy as np
 import pytest
+import torch
 
 from bench import demos, experts, paths
 from bench.rl.trpo import TRPOConfig
@@ -108,3 +112,35 @@ def test_demos_without_flags_never_terminated():
     assert Demos("x", (episode, episode)).terminated == (False, False)
     with pytest.raises(ValueError, match="one terminated flag per episode"):
         Demos("x", (episode,), (True, False))
+
+
+def test_killed_expert_training_resumes_from_its_checkpoint(tmp_path):
+    """A training run killed midway resumes from its last checkpoint, not from step 0."""
+    env_id, out = "InvertedPendulumBulletEnv-v0", tmp_path / "expert"
+    settings = f"{env_id!r}, 65536, seed=0, cfg=TRPOConfig(n_envs=4, steps_per_env=256)"
+    script = (
+        "from pathlib import Path\nfrom bench import experts\nfrom bench.rl.trpo import TRPOConfig\n"
+        f"experts.train_expert({settings}, out_dir=Path({str(out)!r}), progress=False,"
+        " checkpoint_every=0.0)\n"
+    )
+    proc = subprocess.Popen([sys.executable, "-c", script])
+    checkpoint = out / experts.CHECKPOINT
+    try:
+        deadline = time.time() + 120
+        while not checkpoint.exists() and proc.poll() is None and time.time() < deadline:
+            time.sleep(0.05)
+    finally:
+        proc.kill()
+        proc.wait()
+    assert checkpoint.exists() and not (out / "meta.json").exists(), "not killed midway"
+    with pytest.raises(experts.ExpertError, match="other settings"):
+        experts.train_expert(env_id, 32768, 0, TRPOConfig(n_envs=4, steps_per_env=256), out)
+    resumed_at = torch.load(checkpoint, weights_only=True)["run"]["steps"]
+    assert 0 < resumed_at < 65536
+    meta = experts.train_expert(
+        env_id, 65536, 0, TRPOConfig(n_envs=4, steps_per_env=256), out, progress=False
+    )
+    assert meta["resumes"] == 1 and meta["train_steps"] == 65536
+    assert not checkpoint.exists()
+    policy = experts.GaussianPolicy(meta["obs_dim"], meta["act_dim"], tuple(meta["hidden"]))
+    policy.load_state_dict(torch.load(out / "policy.pt", weights_only=True))

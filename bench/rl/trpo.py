@@ -208,6 +208,27 @@ class TRPO:
         self.return_norm = RunningNorm(1)
         self.discounted: np.ndarray | None = None  # running discounted return per env
 
+    def state_dict(self) -> dict:
+        """Everything `update` carries from one batch to the next (tensors and plain numbers
+        only, so it loads with torch.load(..., weights_only=True))."""
+        return {
+            "policy": self.policy.state_dict(),
+            "value": self.value.state_dict(),
+            "vf_opt": self.vf_opt.state_dict(),
+            "gen": self.gen.get_state(),
+            "return_norm": self.return_norm.state_dict(),
+            "discounted": None if self.discounted is None else torch.from_numpy(self.discounted),
+        }
+
+    def load_state_dict(self, state: dict) -> None:
+        self.policy.load_state_dict(state["policy"])
+        self.value.load_state_dict(state["value"])
+        self.vf_opt.load_state_dict(state["vf_opt"])
+        self.gen.set_state(state["gen"])
+        self.return_norm.load_state_dict(state["return_norm"])
+        discounted = state["discounted"]
+        self.discounted = None if discounted is None else discounted.numpy().copy()
+
     def reward_scale(
         self, rewards: np.ndarray, ends: np.ndarray, final: np.ndarray | None = None
     ) -> np.floating:
