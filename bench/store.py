@@ -159,7 +159,9 @@ def scan(results_dir: str | Path) -> Iterator[TrialResult]:
 
 
 def _spec_row(r: TrialResult) -> dict[str, Any]:
-    return {"trial_id": r.trial_id, **{c: getattr(r.spec, c) for c in SPEC_COLUMNS}}
+    """The spec's columns; `algorithm` is the name shown (a labelled variant's label)."""
+    row = {"trial_id": r.trial_id, **{c: getattr(r.spec, c) for c in SPEC_COLUMNS}}
+    return row | {"algorithm": r.spec.shown}
 
 
 def _trial_row(r: TrialResult) -> dict[str, Any]:

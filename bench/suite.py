@@ -24,6 +24,7 @@ was expected.
 from __future__ import annotations
 
 import dataclasses
+import itertools
 import json
 import re
 from dataclasses import dataclass, field
@@ -43,6 +44,7 @@ _ENV_KEYS = ("budget",)
 _RUNNER_KEYS = ("jobs", "backend")
 _BACKENDS = ("loky", "dask")
 _NAME_PATTERN = re.compile(r"[A-Za-z0-9][A-Za-z0-9._-]*")  # it becomes a folder name
+_LABEL_PATTERN = re.compile(r"[A-Za-z0-9][A-Za-z0-9._=,+\[\]-]*")  # as sweeps write them
 
 
 class SuiteError(ValueError):
@@ -71,6 +73,12 @@ class AlgorithmEntry:
     """The algorithm's full config: defaults with the suite's overrides applied, validated."""
     uses_demos: bool = True
     """False for algorithms whose inputs are "none" or "expert": run once, with n_demos=0."""
+    label: str | None = None
+    """A variant's name in records, figures and reports (None: the algorithm's name)."""
+
+    @property
+    def shown(self) -> str:
+        return self.label or self.name
 
 
 @dataclass(frozen=True)
@@ -117,14 +125,18 @@ def select(
 
     A name the suite does not have raises SuiteError, so a typo never silently runs nothing.
     """
+    names = {
+        "env_id": lambda s: {s.env_id},
+        "algorithm": lambda s: {s.algorithm, s.shown},  # a variant by label, or all by algorithm
+    }
     for key, label, wanted in (("env_id", "envs", env), ("algorithm", "algorithms", algorithm)):
         if wanted is None:
             continue
-        have = sorted({getattr(s, key) for s in specs})
+        have = sorted(set().union(*(names[key](s) for s in specs)))
         for name in wanted:
             if name not in have:
                 raise SuiteError(f"{source}: {name!r} is not one of the suite's {label}: {have}")
-        specs = [s for s in specs if getattr(s, key) in wanted]
+        specs = [s for s in specs if names[key](s) & set(wanted)]
     return specs
 
 
@@ -140,6 +152,7 @@ def _spec(
         budget=env.budget,
         eval_episodes=suite.eval_episodes,
         hyperparams=dict(algo.hyperparams),  # a copy: specs outlive the suite
+        label=algo.label,
     )
 
 
@@ -282,36 +295,107 @@ def _runner(raw: Any) -> RunnerSettings:
 
 
 def _algorithms(raw: Any) -> tuple[AlgorithmEntry, ...]:
+    """Entries: `name`, `{name: {hyperparameter: value}}` or, for a labelled variant,
+    `{algorithm: name, label: text, hyperparameter: value, ...}`. A list where a hyperparameter
+    takes one value is a sweep: one variant per value (a grid over several lists)."""
     if not isinstance(raw, list) or not raw:
         raise _Invalid("algorithms", f"expected a non-empty list of names, got {_show(raw)}")
-    entries = []
+    entries: dict[str, AlgorithmEntry] = {}
     for i, item in enumerate(raw):
         key = f"algorithms[{i}]"
-        if isinstance(item, dict) and len(item) == 1:
-            name, overrides = next(iter(item.items()))
-            overrides = {} if overrides is None else overrides  # `- gaifo:` with nothing after
-        else:
-            name, overrides = item, {}
-        if not isinstance(name, str):
-            raise _Invalid(
-                key, f"expected a name or {{name: {{hyperparameter: value}}}}, got {_show(item)}"
-            )
-        if not isinstance(overrides, dict):
-            raise _Invalid(
-                f"{key}.{name}", f"expected a mapping of hyperparameters, got {_show(overrides)}"
-            )
+        name, label, overrides = _entry(item, key)
         try:
             algo = registry.get(name)
         except registry.RegistryError as e:
             raise _Invalid(key, _one_line(str(e))) from None
-        _check_hyperparams(algo, overrides, f"{key}.{name}")
-        # Specs carry the full resolved config, defaults included: a changed default is a new trial id.
-        resolved = json.loads(json.dumps(dataclasses.asdict(algo.make_config(overrides))))
-        if any(e.name == name for e in entries):
-            # Records and plots group by name, so two entries would silently merge.
-            raise _Invalid(key, f"{name!r} is listed twice; give each algorithm one entry")
-        entries.append(AlgorithmEntry(name, resolved, algo.inputs in ("states", "actions")))
-    return tuple(entries)
+        for shown, variant in _variants(algo, label, overrides, key):
+            _check_hyperparams(algo, variant, f"{key}.{name}")
+            # Specs carry the full resolved config, defaults included: a changed default is a
+            # new trial id.
+            resolved = json.loads(json.dumps(dataclasses.asdict(algo.make_config(variant))))
+            if shown in entries:
+                # Records and plots group by what is shown, so two entries would silently merge.
+                raise _Invalid(
+                    key,
+                    f"{shown!r} appears twice; give each variant its own label"
+                    " ({algorithm: NAME, label: LABEL, ...})",
+                )
+            uses_demos = algo.inputs in ("states", "actions")
+            label_or_none = None if shown == name else shown
+            entries[shown] = AlgorithmEntry(name, resolved, uses_demos, label_or_none)
+    return tuple(entries.values())
+
+
+def _entry(item: Any, key: str) -> tuple[str, str | None, dict]:
+    """(algorithm name, label or None, hyperparameter overrides) of one `algorithms` item."""
+    if isinstance(item, dict) and "algorithm" in item:
+        overrides = {k: v for k, v in item.items() if k not in ("algorithm", "label")}
+        name, label = item["algorithm"], item.get("label")
+        if not isinstance(name, str):
+            raise _Invalid(f"{key}.algorithm", f"expected an algorithm name, got {_show(name)}")
+        if label is not None and (
+            not isinstance(label, str) or not _LABEL_PATTERN.fullmatch(label)
+        ):
+            raise _Invalid(
+                f"{key}.label",
+                f"expected a name (letters, digits, . _ - = , + [ ]), got {_show(label)}",
+            )
+        if label is not None and label in registry.all_algorithms():
+            raise _Invalid(f"{key}.label", f"{label!r} is an algorithm's name; pick another label")
+        return name, label, overrides
+    if isinstance(item, dict) and len(item) == 1:
+        name, overrides = next(iter(item.items()))
+        overrides = {} if overrides is None else overrides  # `- gaifo:` with nothing after
+    else:
+        name, overrides = item, {}
+    if not isinstance(name, str):
+        raise _Invalid(
+            key, f"expected a name or {{name: {{hyperparameter: value}}}}, got {_show(item)}"
+        )
+    if not isinstance(overrides, dict):
+        raise _Invalid(
+            f"{key}.{name}", f"expected a mapping of hyperparameters, got {_show(overrides)}"
+        )
+    return name, None, overrides
+
+
+def _variants(
+    algo: registry.Algorithm, label: str | None, overrides: dict, key: str
+) -> list[tuple[str, dict]]:
+    """(label, overrides) per point of the grid spanned by the swept hyperparameters.
+
+    A list sweeps where the field takes a scalar (`disc_lr: [1e-4, 3e-4]`), or a list of
+    lists where it takes a list (`hidden: [[64, 64], [128, 128]]`); `hidden: [64, 64]` is
+    one value. Labels say the values: `gaifo-disc_lr=0.0001`.
+    """
+    fields = {f.name: f for f in dataclasses.fields(algo.config)}
+    swept = {
+        k: v
+        for k, v in overrides.items()
+        if k in fields and isinstance(v, list) and _is_sweep(fields[k], v)
+    }
+    base = label or algo.name
+    if not swept:
+        return [(base, overrides)]
+    for k, values in swept.items():
+        if len(values) != len({json.dumps(v) for v in values}):
+            raise _Invalid(f"{key}.{k}", f"expected distinct values to sweep, got {_show(values)}")
+    variants = []
+    for point in itertools.product(*swept.values()):
+        chosen = dict(zip(swept, point, strict=True))
+        shown = base + "".join(
+            f"-{k}={json.dumps(v, separators=(',', ':'))}" for k, v in chosen.items()
+        )
+        variants.append((shown, {**overrides, **chosen}))
+    return variants
+
+
+def _is_sweep(f: dataclasses.Field, values: list) -> bool:
+    if not values:
+        return False  # an empty list is no sweep; the value check reports it
+    if _scalar_type(f) is not None:
+        return True
+    return all(isinstance(v, list) for v in values)
 
 
 def _check_hyperparams(algo: registry.Algorithm, overrides: dict, key: str) -> None:

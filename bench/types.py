@@ -93,9 +93,19 @@ class TrialSpec:
     eval_episodes: int
     hyperparams: dict[str, Any] = field(default_factory=dict)
     """Overrides of the algorithm's config dataclass; JSON-serializable."""
+    label: str | None = None
+    """A variant's name in a suite with several of one algorithm (None: `algorithm`)."""
 
     def canonical(self) -> str:
-        return json.dumps(asdict(self), sort_keys=True, separators=(",", ":"))
+        spec = asdict(self)
+        if spec["label"] is None:
+            del spec["label"]  # so specs from before labels existed keep their ids
+        return json.dumps(spec, sort_keys=True, separators=(",", ":"))
+
+    @property
+    def shown(self) -> str:
+        """The name records are grouped, plotted and compared by."""
+        return self.label or self.algorithm
 
     @property
     def trial_id(self) -> str:

@@ -10,8 +10,9 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from matplotlib.patches import Rectangle
 
-from bench import store
+from bench import normalize, plot, store
 from bench.runner import CostModel, _jobs, run_suite
 from bench.suite import expand, load_suite
 from bench.types import TrialSpec
@@ -190,3 +191,24 @@ def test_dispatch_runs_unseen_kinds_then_the_costliest_first():
     assert next(jobs)[1][0] == dear
     costs.observe(spec(PENDULUM, "random", 2), 100.0)  # a slow one finished meanwhile
     assert next(jobs)[1][0] == cheap  # the order follows what was learned
+
+
+def test_two_variants_of_one_algorithm_run_and_plot_side_by_side(tmp_path, cli):
+    suite = write_suite(
+        tmp_path,
+        "ablation",
+        f"envs: {{{PENDULUM}: {{budget: 2048}}}}\ndemos: [1]\nseeds: 2\neval_episodes: 2\n"
+        "algorithms:\n  - random\n  - expert\n  - gaifo\n"
+        "  - {algorithm: gaifo, label: gaifo-no-absorbing, absorbing: false}\n",
+    )
+    out = cli("run", str(suite), "--results", str(tmp_path / "res"), "--jobs", "2")
+    assert out.returncode == 0, out.stderr
+    records = list(store.scan(tmp_path / "res"))
+    variant = [r for r in records if r.spec.label == "gaifo-no-absorbing"]
+    assert len(variant) == 2 and all(r.spec.hyperparams["absorbing"] is False for r in variant)
+    df = normalize.normalize(store.load(tmp_path / "res"))
+    fig = plot.draw_figure2(df)
+    assert len([p for p in fig.axes[0].patches if isinstance(p, Rectangle)]) == 2
+    assert [t.get_text() for t in fig.legends[0].get_texts()][:2] == ["GAIfO", "gaifo-no-absorbing"]
+    out = cli("compare", str(tmp_path / "res"), str(tmp_path / "res"))
+    assert out.returncode == 0 and "gaifo-no-absorbing" in out.stdout

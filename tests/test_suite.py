@@ -231,7 +231,7 @@ BAD = [
     (lambda r: _set(r, ("algorithms",), []), "algorithms: expected a non-empty list"),
     (lambda r: _set(r, ("algorithms", 1), "gaifoo"), "algorithms[1]: unknown algorithm 'gaifoo'"),
     (lambda r: _set(r, ("algorithms", 1), 3), "algorithms[1]: expected a name or"),
-    (lambda r: _set(r, ("algorithms", 1), "random"), "algorithms[1]: 'random' is listed twice"),
+    (lambda r: _set(r, ("algorithms", 1), "random"), "algorithms[1]: 'random' appears twice"),
     (
         lambda r: _set(r, ("algorithms", 2), {"ifo": {"lrr": 0.1}}),
         "algorithms[2].ifo: algorithm 'ifo' has no hyperparameter 'lrr' (known: lr, normalize, steps)",
@@ -297,3 +297,79 @@ def test_missing_file_names_the_neighbours(tmp_path):
 
 def test_suite_error_is_a_value_error():
     assert issubclass(SuiteError, ValueError)
+
+
+# ---------------------------------------------------------------- variants and sweeps
+
+
+def test_labelled_variants_of_one_algorithm(tmp_path):
+    raw = base() | {
+        "algorithms": [
+            "ifo",
+            {"algorithm": "ifo", "label": "ifo-unnormalized", "normalize": False},
+        ]
+    }
+    specs = expand(load_suite(write(tmp_path, raw)))
+    shown = {s.shown for s in specs}
+    assert shown == {"ifo", "ifo-unnormalized"}
+    variant = next(s for s in specs if s.label == "ifo-unnormalized")
+    assert variant.algorithm == "ifo" and variant.hyperparams["normalize"] is False
+    plain = next(s for s in specs if s.label is None)
+    assert '"label"' not in plain.canonical()  # ids of unlabelled specs are as before labels
+    assert len({s.trial_id for s in specs}) == len(specs)
+    assert {s.shown for s in select(specs, "x", algorithm=["ifo-unnormalized"])} == {
+        "ifo-unnormalized"
+    }
+    assert {s.shown for s in select(specs, "x", algorithm=["ifo"])} == shown  # all variants
+
+
+def test_a_list_sweeps_and_labels_say_the_values(tmp_path, monkeypatch):
+    @dataclass
+    class NetConfig:
+        hidden: tuple = (64, 64)
+        lr: float = 1e-3
+
+    registry.register("net", config=NetConfig, inputs="states")(_train)
+    raw = base() | {
+        "algorithms": [
+            {"net": {"hidden": [32, 32]}},  # one value of a list-valued field
+            {"algorithm": "net", "label": "grid", "lr": [0.001, 0.01], "hidden": [[8], [16]]},
+        ]
+    }
+    entries = load_suite(write(tmp_path, raw)).algorithms
+    assert [e.shown for e in entries] == [
+        "net",
+        "grid-lr=0.001-hidden=[8]",
+        "grid-lr=0.001-hidden=[16]",
+        "grid-lr=0.01-hidden=[8]",
+        "grid-lr=0.01-hidden=[16]",
+    ]
+    assert entries[0].hyperparams["hidden"] == [32, 32]
+    assert entries[4].hyperparams == {"hidden": [16], "lr": 0.01}
+
+
+@pytest.mark.parametrize(
+    "entries, message",
+    [
+        (["ifo", {"ifo": {"lr": 0.1}}], "'ifo' appears twice; give each variant its own label"),
+        (
+            [{"algorithm": "ifo", "label": "a", "lr": [0.1, 0.1]}],
+            "algorithms[0].lr: expected distinct values to sweep",
+        ),
+        (
+            [{"algorithm": "ifo", "label": "ifo-lr=0.1"}, {"ifo": {"lr": [0.1, 0.2]}}],
+            "'ifo-lr=0.1' appears twice",
+        ),
+        (
+            [{"algorithm": "ifo", "label": "random"}],
+            "algorithms[0].label: 'random' is an algorithm",
+        ),
+        ([{"algorithm": "ifo", "label": "a b"}], "algorithms[0].label: expected a name"),
+        ([{"algorithm": "nope", "label": "a"}], "algorithms[0]: unknown algorithm"),
+        ([{"algorithm": "ifo", "label": "a", "lr": ["x"]}], "algorithms[0].ifo.lr: expected float"),
+    ],
+)
+def test_bad_variants_are_one_line_errors(tmp_path, entries, message):
+    with pytest.raises(SuiteError) as err:
+        load_suite(write(tmp_path, base() | {"algorithms": entries}))
+    assert message in str(err.value) and "\n" not in str(err.value)
