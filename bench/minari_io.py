@@ -116,3 +116,104 @@ def _quiet() -> Iterator[None]:
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", UserWarning)
         yield
+
+
+# ---------------------------------------------------------------- import
+
+
+def open_dataset(source: str):
+    """A Minari dataset from a folder (the dataset's, or its data/) or a dataset id already on
+    this machine (Minari's local root); DatasetError when it is neither. Never downloads."""
+    import minari
+
+    path = Path(source).expanduser()
+    if path.exists():
+        data = path / "data" if (path / "data").is_dir() else path
+        try:
+            with _quiet():
+                return minari.MinariDataset(data)
+        except Exception as e:  # h5py and Minari raise many kinds
+            raise DatasetError(f"{source}: not a Minari dataset ({_one_line(e)})") from None
+    try:
+        with _quiet():
+            return minari.load_dataset(source, download=False)
+    except Exception:
+        raise DatasetError(
+            f"{source}: no such dataset folder, nor a Minari dataset id on this machine"
+            f" (looked in {path.resolve().parent} and {minari.storage.get_dataset_path()})"
+        ) from None
+
+
+def check_env(dataset, source: str, env_id: str) -> None:
+    """The dataset must come from `env_id`, or from an env with the same spaces."""
+    recorded = dataset.env_spec.id if dataset.env_spec is not None else None
+    if recorded == env_id:
+        return
+    obs_dim, act_dim, _, _ = envs.spaces(env_id)
+    obs_shape, act_shape = dataset.observation_space.shape, dataset.action_space.shape
+    if obs_shape == (obs_dim,) and act_shape == (act_dim,):
+        return
+    raise DatasetError(
+        f"{source} was recorded in {recorded or 'an unnamed env'} (observations {obs_shape},"
+        f" actions {act_shape}), not in {env_id} (({obs_dim},), ({act_dim},))"
+    )
+
+
+def has_actions(dataset) -> bool:
+    """False when the recorded actions are missing (NaN): a state-only dataset."""
+    return all(np.isfinite(ep.actions).all() for ep in dataset.iterate_episodes())
+
+
+def to_pool(dataset, env_id: str) -> dict[str, np.ndarray]:
+    """The dataset's episodes as a demonstration pool, laid out as `demos.record` writes one
+    (actions NaN where the dataset has none)."""
+    episodes = list(dataset.iterate_episodes())
+    obs = [np.asarray(ep.observations, np.float32) for ep in episodes]
+    acts = [
+        np.asarray(ep.actions, np.float32).reshape(len(o) - 1, -1)
+        for ep, o in zip(episodes, obs, strict=True)
+    ]
+    return {
+        "env_id": np.array(env_id),
+        "obs_dim": np.array(obs[0].shape[1]),
+        "act_dim": np.array(acts[0].shape[1]),
+        "obs": np.concatenate(obs),
+        "obs_lengths": np.array([len(o) for o in obs]),
+        "terminated": np.array([bool(ep.terminations[-1]) for ep in episodes]),
+        "actions": np.concatenate(acts),
+        "rewards": np.concatenate([np.asarray(ep.rewards, np.float32) for ep in episodes]),
+    }
+
+
+def expert_reference(dataset) -> tuple[list[float], str]:
+    """The returns that stand for "expert" (normalized 1.0) with this dataset's demonstrations:
+    its `ref_max_score` if it has one, else its episodes' returns; and which it was."""
+    score = dataset.storage.metadata.get("ref_max_score")
+    if score is not None:
+        return [float(score)], "dataset ref_max_score"
+    returns = [float(np.sum(ep.rewards)) for ep in dataset.iterate_episodes()]
+    return returns, f"returns of the dataset's {len(returns)} episodes"
+
+
+def _one_line(error: Exception) -> str:
+    return " ".join(str(error).split()) or type(error).__name__
+
+
+def ensure_pool(source: str, env_id: str) -> Path:
+    """Path of the dataset's episodes converted to a demonstration pool (cached: converted once
+    per dataset, keyed by where it is and its size)."""
+    import hashlib
+
+    from bench import paths
+
+    dataset = open_dataset(source)
+    where = (
+        str(Path(source).expanduser().resolve()) if Path(source).expanduser().exists() else source
+    )
+    key = f"{where}|{dataset.total_episodes}|{dataset.total_steps}"
+    digest = hashlib.sha256(key.encode()).hexdigest()[:12]
+    path = paths.CACHE_DIR / "datasets" / f"{env_id}-{digest}-{demos.FORMAT}.npz"
+    if not path.exists():
+        check_env(dataset, source, env_id)
+        demos.save(path, to_pool(dataset, env_id))
+    return path

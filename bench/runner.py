@@ -24,7 +24,7 @@ import numpy as np
 import torch
 from tqdm import tqdm
 
-from bench import demos, envs, experts, registry, store
+from bench import demos, envs, experts, minari_io, registry, store
 from bench.rl.rollout import evaluate
 from bench.types import CurvePoint, TrialResult, TrialSpec
 
@@ -87,8 +87,11 @@ def trial_inputs(spec: TrialSpec) -> Any:
     if kind == "none":
         return None
     if kind == "expert":
-        return experts.load_expert(spec.env_id)
-    pool = demos.ensure_pool(spec.env_id)
+        return None if spec.dataset else experts.load_expert(spec.env_id)
+    if spec.dataset:
+        pool = minari_io.ensure_pool(spec.dataset, spec.env_id)
+    else:
+        pool = demos.ensure_pool(spec.env_id)
     if kind == "states":
         return demos.load_demos(pool, spec.env_id, spec.n_demos, spec.seed)
     return demos.load_action_demos(pool, spec.env_id, spec.n_demos, spec.seed)
@@ -116,7 +119,7 @@ def run_trial(spec: TrialSpec, inputs: Any, device: str = "cpu") -> TrialResult:
     eval_seed = EVAL_SEED + 1000 * spec.seed
     eval_envs: list[gym.Env] = []
     logger = TrialLogger(eval_envs, eval_seed, every=max(1, spec.budget // CURVE_POINTS))
-    given = None
+    given = reference = None
     try:
         torch.manual_seed(spec.seed)
         algo = registry.get(spec.algorithm)
@@ -124,10 +127,14 @@ def run_trial(spec: TrialSpec, inputs: Any, device: str = "cpu") -> TrialResult:
         eval_envs += [
             envs.make(spec.env_id, eval_seed + i) for i in range(min(10, spec.eval_episodes))
         ]
-        task = make_task(spec, tally, device)
-        config = algo.make_config(spec.hyperparams)
-        policy = algo.train(task, inputs, spec.budget, spec.seed, logger, config)
-        returns = evaluate(policy, eval_envs, spec.eval_episodes, eval_seed)
+        if spec.dataset and algo.inputs == "expert":
+            # The demonstrator of an imported dataset cannot be run: its returns stand in.
+            returns, reference = minari_io.expert_reference(minari_io.open_dataset(spec.dataset))
+        else:
+            task = make_task(spec, tally, device)
+            config = algo.make_config(spec.hyperparams)
+            policy = algo.train(task, inputs, spec.budget, spec.seed, logger, config)
+            returns = evaluate(policy, eval_envs, spec.eval_episodes, eval_seed)
         if not np.all(np.isfinite(returns)):
             raise FloatingPointError("evaluation returned a non-finite return")
         status, tb = "ok", None
@@ -147,6 +154,7 @@ def run_trial(spec: TrialSpec, inputs: Any, device: str = "cpu") -> TrialResult:
         traceback=tb,
         logs=logger.logs,
         inputs=given,
+        reference=reference,
     )
 
 

@@ -76,6 +76,7 @@ def read(path: str | Path) -> TrialResult:
         traceback=raw.get("traceback"),
         logs={k: [_float(v) for v in vs] for k, vs in raw.get("logs", {}).items()},
         inputs=raw.get("inputs"),
+        reference=raw.get("reference"),
     )
 
 

@@ -40,7 +40,7 @@ from bench.types import TrialSpec
 
 _SUITE_KEYS = ("name", "envs", "demos", "algorithms", "seeds", "eval_episodes", "runner")
 _REQUIRED_KEYS = ("envs", "demos", "algorithms")
-_ENV_KEYS = ("budget",)
+_ENV_KEYS = ("budget", "dataset")
 _RUNNER_KEYS = ("jobs", "backend")
 _BACKENDS = ("loky", "dask")
 _NAME_PATTERN = re.compile(r"[A-Za-z0-9][A-Za-z0-9._-]*")  # it becomes a folder name
@@ -64,6 +64,9 @@ class EnvSettings:
     env_id: str
     budget: int
     """Env steps each training trial may take."""
+    dataset: str | None = None
+    """A Minari dataset (folder or local id) to take demonstrations from instead of the
+    shipped expert's pool."""
 
 
 @dataclass(frozen=True)
@@ -153,6 +156,7 @@ def _spec(
         eval_episodes=suite.eval_episodes,
         hyperparams=dict(algo.hyperparams),  # a copy: specs outlive the suite
         label=algo.label,
+        dataset=env.dataset,
     )
 
 
@@ -227,7 +231,9 @@ def _suite(raw: Any, default_name: str) -> Suite:
         )
 
     envs = _envs(raw["envs"])
-    demos = _int_list(raw["demos"], "demos", 1, DEMO_POOL_SIZE)
+    # The shipped pools hold DEMO_POOL_SIZE episodes; a dataset is checked for its own count.
+    pooled = any(env.dataset is None for env in envs)
+    demos = _int_list(raw["demos"], "demos", 1, DEMO_POOL_SIZE if pooled else None)
     seeds = _seeds(raw.get("seeds", 10))
     eval_episodes = _int(raw.get("eval_episodes", 10), "eval_episodes", 1, None)
     runner = _runner(raw.get("runner", {}))
@@ -239,6 +245,8 @@ def _suite(raw: Any, default_name: str) -> Suite:
             check_env_id(env.env_id)
         except EnvError as e:
             raise _Invalid(f"envs.{env.env_id}", _one_line(str(e))) from None
+        if env.dataset is not None:
+            _check_dataset(env, max(demos), algorithms)
         if not paths.has_expert(env.env_id):
             raise _Invalid(
                 f"envs.{env.env_id}",
@@ -246,6 +254,32 @@ def _suite(raw: Any, default_name: str) -> Suite:
                 " it is the 1.0 of normalized scores; train it with `bench experts`)",
             )
     return Suite(name, envs, demos, algorithms, seeds, eval_episodes, runner)
+
+
+def _check_dataset(env: EnvSettings, most_demos: int, algorithms: tuple) -> None:
+    """The dataset opens, comes from this env, has enough episodes, and has actions if an
+    algorithm needs them."""
+    from bench import minari_io
+
+    key = f"envs.{env.env_id}.dataset"
+    try:
+        dataset = minari_io.open_dataset(env.dataset)
+        minari_io.check_env(dataset, env.dataset, env.env_id)
+    except minari_io.DatasetError as e:
+        raise _Invalid(key, str(e)) from None
+    if dataset.total_episodes < most_demos:
+        raise _Invalid(
+            key,
+            f"{env.dataset} has {dataset.total_episodes} episodes, fewer than the"
+            f" {most_demos} demonstrations asked for",
+        )
+    needs_actions = [a.shown for a in algorithms if registry.get(a.name).inputs == "actions"]
+    if needs_actions and not minari_io.has_actions(dataset):
+        raise _Invalid(
+            key,
+            f"{env.dataset} records no actions (NaN), which {', '.join(needs_actions)} needs;"
+            " imitation from observation algorithms run without them",
+        )
 
 
 def _envs(raw: Any) -> tuple[EnvSettings, ...]:
@@ -265,7 +299,13 @@ def _envs(raw: Any) -> tuple[EnvSettings, ...]:
         _check_keys(settings, _ENV_KEYS, key)
         if "budget" not in settings:
             raise _Invalid(f"{key}.budget", "missing (required: env steps per training trial)")
-        envs.append(EnvSettings(env_id, _int(settings["budget"], f"{key}.budget", 1, None)))
+        dataset = settings.get("dataset")
+        if dataset is not None and (not isinstance(dataset, str) or not dataset):
+            raise _Invalid(
+                f"{key}.dataset", f"expected a dataset folder or Minari id, got {_show(dataset)}"
+            )
+        budget = _int(settings["budget"], f"{key}.budget", 1, None)
+        envs.append(EnvSettings(env_id, budget, dataset))
     return tuple(envs)
 
 

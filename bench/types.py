@@ -95,11 +95,15 @@ class TrialSpec:
     """Overrides of the algorithm's config dataclass; JSON-serializable."""
     label: str | None = None
     """A variant's name in a suite with several of one algorithm (None: `algorithm`)."""
+    dataset: str | None = None
+    """A Minari dataset (folder or id) the demonstrations come from (None: the shipped
+    expert's pool)."""
 
     def canonical(self) -> str:
         spec = asdict(self)
-        if spec["label"] is None:
-            del spec["label"]  # so specs from before labels existed keep their ids
+        for optional in ("label", "dataset"):
+            if spec[optional] is None:
+                del spec[optional]  # so specs from before these fields existed keep their ids
         return json.dumps(spec, sort_keys=True, separators=(",", ":"))
 
     @property
@@ -142,6 +146,9 @@ class TrialResult:
     inputs: str | None = None
     """What the algorithm was given: "none", "states", "actions" or "expert" (its registry
     entry's `inputs`), so figures can mark action users from the records alone."""
+    reference: str | None = None
+    """Where an expert record's returns come from when no shipped expert was run (a dataset's
+    demonstrator: its ref_max_score or its episodes' returns)."""
 
     @property
     def trial_id(self) -> str:

@@ -1,10 +1,14 @@
 """Export of the expert pool as a Minari dataset: what Minari reads back is the pool."""
 
+import warnings
+
 import minari
 import numpy as np
 import pytest
+from minari.data_collector import EpisodeBuffer
 
-from bench import cli, demos, minari_io
+from bench import cli, demos, minari_io, store
+from bench.suite import load_suite
 
 PENDULUM = "InvertedPendulumBulletEnv-v0"
 
@@ -56,3 +60,85 @@ def test_cli_without_references_is_one_line_and_writes_nothing(tmp_path, capsys)
     err = capsys.readouterr().err.strip()
     assert err.count("\n") == 0 and "no random and expert trials" in err
     assert not out.exists()
+
+
+# ---------------------------------------------------------------- import
+
+
+def write_suite(folder, dataset, algorithms: str, env_id: str = PENDULUM):
+    path = folder / "from-dataset.yaml"
+    path.write_text(
+        f"envs: {{{env_id}: {{budget: 2048, dataset: {dataset}}}}}\n"
+        f"demos: [2]\nalgorithms: [{algorithms}]\nseeds: 1\neval_episodes: 2\n"
+    )
+    return path
+
+
+def state_only_copy(dataset, root) -> str:
+    """The dataset re-written without actions (NaN), as a state-only recording would be."""
+    buffers = [
+        EpisodeBuffer(
+            id=ep.id,
+            observations=list(ep.observations),
+            actions=list(np.full_like(ep.actions, np.nan)),
+            rewards=list(ep.rewards),
+            terminations=list(ep.terminations),
+            truncations=list(ep.truncations),
+        )
+        for ep in dataset.iterate_episodes()
+    ]
+    name = "someone/InvertedPendulumBulletEnv-v0/states-v0"
+    with minari_io._datasets_root(root), warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        minari.create_dataset_from_buffers(
+            dataset_id=name,
+            buffer=buffers,
+            env=PENDULUM,
+            observation_space=dataset.observation_space,
+            action_space=dataset.action_space,
+        )
+    return str(root / name)
+
+
+def test_import_gives_back_the_exported_demos(exported):
+    dataset, pool_path = exported
+    imported = minari_io.ensure_pool(dataset.id, PENDULUM)  # by id, from the local root
+    for k, seed in ((1, 0), (5, 3)):
+        a = demos.load_action_demos(imported, PENDULUM, k, seed)
+        b = demos.load_action_demos(pool_path, PENDULUM, k, seed)
+        assert a.demos.terminated == b.demos.terminated
+        for x, y in zip(a.demos.observations + a.actions, b.demos.observations + b.actions):
+            np.testing.assert_array_equal(x, y)
+
+
+def test_a_trial_runs_from_an_imported_dataset(exported, tmp_path):
+    dataset, _ = exported
+    folder = str(minari.storage.get_dataset_path(dataset.id))
+    suite = write_suite(tmp_path, folder, "random, expert, gaifo")
+    assert cli.main(["run", str(suite), "--results", str(tmp_path / "res"), "--jobs", "1"]) == 0
+    records = {r.spec.algorithm: r for r in store.scan(tmp_path / "res")}
+    assert {r.status for r in records.values()} == {"ok"}
+    assert all(r.spec.dataset == folder for r in records.values())
+    expert = records["expert"]
+    assert expert.returns == [1000.0] and expert.reference == "dataset ref_max_score"
+    assert records["gaifo"].env_steps == 2048
+
+
+def test_state_only_dataset_serves_ifo_and_refuses_gail(exported, tmp_path, capsys):
+    folder = state_only_copy(exported[0], tmp_path / "datasets")
+    ok = load_suite(write_suite(tmp_path, folder, "random, expert, gaifo"))
+    assert ok.envs[0].dataset == folder
+    bad = write_suite(tmp_path, folder, "random, expert, gaifo, gail")
+    assert cli.main(["run", str(bad), "--results", str(tmp_path / "res")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "\n" not in err and "records no actions (NaN), which gail needs" in err
+    assert not (tmp_path / "res").exists()
+
+
+def test_dataset_of_another_env_is_one_line(exported, tmp_path, capsys):
+    folder = str(minari.storage.get_dataset_path(exported[0].id))
+    suite = write_suite(tmp_path, folder, "random, gaifo", env_id="HopperBulletEnv-v0")
+    assert cli.main(["run", str(suite), "--results", str(tmp_path / "res")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "\n" not in err and f"was recorded in {PENDULUM}" in err
+    assert not (tmp_path / "res").exists()
