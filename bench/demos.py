@@ -59,15 +59,27 @@ def record(env_id: str, policy, n_episodes: int, seed: int) -> dict[str, np.ndar
             rew_eps.append(np.asarray(rews, np.float32))
     finally:
         env.close()
+    return pool_arrays(env_id, obs_eps, act_eps, rew_eps, terminated)
+
+
+def pool_arrays(
+    env_id: str,
+    observations: list[np.ndarray],
+    actions: list[np.ndarray],
+    rewards: list[np.ndarray],
+    terminated: list[bool],
+) -> dict[str, np.ndarray]:
+    """Episodes laid out as a pool file stores them: (T_i + 1, O) observations, (T_i, A)
+    actions and (T_i,) rewards per episode, back to back, with their lengths."""
     return {
         "env_id": np.array(env_id),
-        "obs_dim": np.array(obs_eps[0].shape[1]),
-        "act_dim": np.array(act_eps[0].shape[1]),
-        "obs": np.concatenate(obs_eps),
-        "obs_lengths": np.array([len(o) for o in obs_eps]),
+        "obs_dim": np.array(observations[0].shape[1]),
+        "act_dim": np.array(actions[0].shape[1]),
+        "obs": np.concatenate(observations),
+        "obs_lengths": np.array([len(o) for o in observations]),
         "terminated": np.array(terminated),
-        "actions": np.concatenate(act_eps),
-        "rewards": np.concatenate(rew_eps),
+        "actions": np.concatenate(actions),
+        "rewards": np.concatenate(rewards),
     }
 
 

@@ -169,20 +169,16 @@ def to_pool(dataset, env_id: str) -> dict[str, np.ndarray]:
     (actions NaN where the dataset has none)."""
     episodes = list(dataset.iterate_episodes())
     obs = [np.asarray(ep.observations, np.float32) for ep in episodes]
-    acts = [
-        np.asarray(ep.actions, np.float32).reshape(len(o) - 1, -1)
-        for ep, o in zip(episodes, obs, strict=True)
-    ]
-    return {
-        "env_id": np.array(env_id),
-        "obs_dim": np.array(obs[0].shape[1]),
-        "act_dim": np.array(acts[0].shape[1]),
-        "obs": np.concatenate(obs),
-        "obs_lengths": np.array([len(o) for o in obs]),
-        "terminated": np.array([bool(ep.terminations[-1]) for ep in episodes]),
-        "actions": np.concatenate(acts),
-        "rewards": np.concatenate([np.asarray(ep.rewards, np.float32) for ep in episodes]),
-    }
+    return demos.pool_arrays(
+        env_id,
+        obs,
+        [
+            np.asarray(ep.actions, np.float32).reshape(len(o) - 1, -1)
+            for ep, o in zip(episodes, obs, strict=True)
+        ],
+        [np.asarray(ep.rewards, np.float32) for ep in episodes],
+        [bool(ep.terminations[-1]) for ep in episodes],
+    )
 
 
 def expert_reference(dataset) -> tuple[list[float], str]:

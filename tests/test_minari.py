@@ -107,7 +107,8 @@ def test_import_gives_back_the_exported_demos(exported):
         a = demos.load_action_demos(imported, PENDULUM, k, seed)
         b = demos.load_action_demos(pool_path, PENDULUM, k, seed)
         assert a.demos.terminated == b.demos.terminated
-        for x, y in zip(a.demos.observations + a.actions, b.demos.observations + b.actions):
+        pairs = zip(a.demos.observations + a.actions, b.demos.observations + b.actions, strict=True)
+        for x, y in pairs:
             np.testing.assert_array_equal(x, y)
 
 
