@@ -235,7 +235,7 @@ def summary_table(df: pd.DataFrame) -> str:
         a for a in REFERENCES if a in set(df["algorithm"])
     ]
     starred = action_users(df)
-    header = ["env", "algorithm"] + [_demos_header(n) for n in demos]
+    header = ["env", "algorithm"] + [demos_label(n) for n in demos]
     lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
     for env_id in env_order(df["env_id"].unique()):
         for a in algos:
@@ -332,8 +332,9 @@ def _legend_columns(entries: int, panels_across: int) -> int:
     return math.ceil(entries / rows)
 
 
-def _demos_header(n: int) -> str:
-    return "no demos" if n == 0 else f"{n} demo" if n == 1 else f"{n} demos"
+def demos_label(n: int, word: str = "demo") -> str:
+    """'no demos', '1 demo', '5 demos'; word="demonstration" for the long form."""
+    return f"no {word}s" if n == 0 else f"{n} {word}" + ("s" if n != 1 else "")
 
 
 def _mean_std(mean: float, std: float) -> str:

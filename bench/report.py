@@ -280,7 +280,7 @@ def _header(df: pd.DataFrame, results_dir: Path) -> str:
         lines += ["", "Failed trials, left out of every statistic:", ""]
         lines += [
             f"- {plot.env_label(r.env_id)}, {label(r.algorithm)}, "
-            f"{_demos_title(r.n_demos).lower()}, seed {r.seed}"
+            f"{plot.demos_label(r.n_demos, 'demonstration')}, seed {r.seed}"
             for r in failed.head(MAX_LISTED).itertuples()
         ]
         if len(failed) > MAX_LISTED:
@@ -334,7 +334,7 @@ def _at_a_glance(
     if aggregates.empty:
         return ""
     counts = sorted(aggregates["n_demos"].unique())
-    columns = [f"{n} demo" + ("s" if n != 1 else "") for n in counts]
+    columns = [plot.demos_label(n) for n in counts]
     rule = "|" + "---|" * (1 + len(counts))
     lines = ["## At a glance", "", _row(["IQM [95% CI]", *columns]), rule]
     iqm = aggregates[aggregates["metric"] == "iqm"].set_index(["algorithm", "n_demos"])
@@ -549,7 +549,7 @@ def _row(cells: Sequence[object]) -> str:
 
 
 def _demos_title(n: int) -> str:
-    return "No demonstrations" if n == 0 else f"{n} demonstration" + ("s" if n != 1 else "")
+    return plot.demos_label(n, "demonstration").capitalize()
 
 
 def _range_text(values: pd.Series) -> str:
