@@ -69,11 +69,13 @@ def report_each_update(
     stats: dict[str, float] | None = None,
     average: PolicyAverage | None = None,
 ) -> Callback:
-    """A TRPO callback: log `stats` (read at each call) and the KL, fold the policy into
-    `average` if given, and offer the policy (the average, if given) for evaluation."""
+    """A TRPO callback: log `stats` (read at each call), the KL and the policy's action noise
+    (mean std), fold the policy into `average` if given, and offer the policy (the average, if
+    given) for evaluation."""
 
     def on_update(steps: int, learner: TRPO, batch: Batch, info: dict[str, float]) -> None:
-        logger.log(steps, **(stats or {}), kl=info["kl"])
+        noise = learner.policy.log_std.detach().exp().mean().item()
+        logger.log(steps, **(stats or {}), kl=info["kl"], policy_std=noise)
         if average is None:
             logger.checkpoint(steps, deterministic(learner, task))
         else:
