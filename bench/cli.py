@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import json
+import os
 import shlex
 import sys
 from collections.abc import Callable
@@ -98,6 +99,8 @@ def _run(args: argparse.Namespace) -> int:
     results = Path(args.results) if args.results else Path("results") / suite.name
     backend = args.backend or suite.runner.backend
     jobs = args.jobs if args.jobs is not None else suite.runner.jobs
+    if args.estimate:
+        return _estimate(specs, results, jobs)
     print(f"suite {suite.name}: {len(specs)} trials -> {results}/", file=sys.stderr)
     summary = run_suite(
         specs,
@@ -115,6 +118,32 @@ def _run(args: argparse.Namespace) -> int:
     if summary.failed:
         print("rerun with --retry-failed to try the failed trials again", file=sys.stderr)
     return 1 if summary.failed else 0
+
+
+def _estimate(specs: list, results: Path, jobs: int) -> int:
+    """Print what the pending trials would cost, from every record under results/'s parent."""
+    from bench import store
+    from bench.runner import estimate, pending
+
+    finished = {r.trial_id: r.status for r in store.scan(results)}
+    todo = pending(specs, finished, retry_failed=False)
+    records = [r for d in store.find_result_dirs(results.parent) for r in store.scan(d)]
+    rows = estimate(todo, records)
+    print(f"{len(todo)} of {len(specs)} trials pending -> {results}/")
+    print(f"{'env':36s} {'algorithm':14s} {'trials':>6s} {'per trial':>10s} {'core-h':>7s}  basis")
+    known = 0.0
+    for r in sorted(rows, key=lambda r: (r.env_id, r.algorithm)):
+        each = "?" if r.seconds is None else f"{r.seconds / 60:.1f} min"
+        hours = "?" if r.seconds is None else f"{r.seconds * r.trials / 3600:.2f}"
+        known += 0.0 if r.seconds is None else r.seconds * r.trials
+        print(f"{r.env_id:36s} {r.algorithm:14s} {r.trials:6d} {each:>10s} {hours:>7s}  {r.basis}")
+    cores = jobs if jobs > 0 else os.cpu_count() or 1
+    unknown = sum(r.trials for r in rows if r.seconds is None)
+    print(
+        f"total {known / 3600:.1f} core-hours, ~{known / 3600 / cores:.1f} h wall on {cores} cores"
+        + (f"; {unknown} trials with nothing to go by" if unknown else "")
+    )
+    return 0
 
 
 def _plot(args: argparse.Namespace) -> int:
@@ -248,6 +277,12 @@ def build_parser() -> argparse.ArgumentParser:
         "--jobs", type=int, help="parallel trials (default: the suite's, else all cores)"
     )
     run.add_argument("--retry-failed", action="store_true", help="rerun trials recorded as failed")
+    run.add_argument(
+        "--estimate",
+        action="store_true",
+        help="run nothing: print the pending trials' expected core-hours, from the records"
+        " under the results folder's parent",
+    )
     run.add_argument(
         "--backend",
         choices=["loky", "dask"],

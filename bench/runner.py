@@ -12,7 +12,7 @@ import threading
 import time
 import traceback
 import warnings
-from collections.abc import Iterator
+from collections.abc import Iterable, Iterator
 from dataclasses import dataclass, field
 from importlib.metadata import version
 from pathlib import Path
@@ -205,6 +205,48 @@ class CostModel:
         return (0, total / n * spec.budget)
 
 
+@dataclass(frozen=True)
+class Estimate:
+    env_id: str
+    algorithm: str
+    trials: int
+    seconds: float | None
+    """Expected wall seconds of one trial on one core (None: nothing to go by)."""
+    basis: str
+    """What the estimate rests on."""
+
+
+def estimate(specs: list[TrialSpec], records: Iterable[TrialResult]) -> list[Estimate]:
+    """Expected cost of `specs` per (env, algorithm), from the seconds per env step that
+    finished `records` took: their mean on the same env if any, else the slowest env's (envs
+    step at different speeds, so that is a bound, not a guess). Records made while the
+    machine was busy make any estimate an upper bound."""
+    per_step: dict[tuple[str, str], list[float]] = {}
+    for r in records:
+        if r.status == "ok" and r.spec.budget > 0:
+            per_step.setdefault((r.spec.env_id, r.spec.algorithm), []).append(
+                r.wall_time / r.spec.budget
+            )
+    groups: dict[tuple[str, str], list[TrialSpec]] = {}
+    for spec in specs:
+        groups.setdefault((spec.env_id, spec.algorithm), []).append(spec)
+    out = []
+    for (env_id, algorithm), group in groups.items():
+        budget = sum(s.budget for s in group) / len(group)
+        here = per_step.get((env_id, algorithm))
+        elsewhere = {e: np.mean(vs) for (e, a), vs in per_step.items() if a == algorithm}
+        if here:
+            seconds, basis = float(np.mean(here)) * budget, f"mean of {len(here)} trials"
+        elif elsewhere:
+            slowest = max(elsewhere, key=elsewhere.get)
+            seconds = float(elsewhere[slowest]) * budget
+            basis = f"at most: as slow per step as on {slowest}"
+        else:
+            seconds, basis = None, f"no finished {algorithm} trial"
+        out.append(Estimate(env_id, algorithm, len(group), seconds, basis))
+    return out
+
+
 def _jobs(specs: list[TrialSpec], costs: CostModel, device: str) -> Iterator:
     remaining = list(specs)
     while remaining:  # a generator: the next trial is chosen (and loaded) as a worker frees up
@@ -233,13 +275,13 @@ def run_suite(
     for r in records:  # what earlier runs into this folder measured
         if r.status == "ok":
             costs.observe(r.spec, r.wall_time)
-    for env_id in sorted({s.env_id for s in todo}):  # record demo pools once, before forking
-        if any(
-            registry.get(s.algorithm).inputs in ("states", "actions")
-            for s in todo
-            if s.env_id == env_id
-        ):
-            demos.ensure_pool(env_id)
+    sources = {
+        (s.env_id, s.dataset or "")
+        for s in todo
+        if registry.get(s.algorithm).inputs in ("states", "actions")
+    }
+    for env_id, dataset in sorted(sources):  # demo pools made once, before forking
+        minari_io.ensure_pool(dataset, env_id) if dataset else demos.ensure_pool(env_id)
     done = failed = 0
     bar = tqdm(
         total=len(todo), desc="trials", unit="trial", disable=not progress, dynamic_ncols=True

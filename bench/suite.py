@@ -78,6 +78,8 @@ class AlgorithmEntry:
     """False for algorithms whose inputs are "none" or "expert": run once, with n_demos=0."""
     label: str | None = None
     """A variant's name in records, figures and reports (None: the algorithm's name)."""
+    seeds: tuple[int, ...] | None = None
+    """This entry's seeds (None: the suite's), e.g. fewer for costly controls."""
 
     @property
     def shown(self) -> str:
@@ -111,9 +113,13 @@ def expand(suite: Suite) -> list[TrialSpec]:
     with_demos = [a for a in suite.algorithms if a.uses_demos]
     specs = []
     for env in suite.envs:
-        specs += [_spec(suite, env, a, 0, s) for a in no_demos for s in suite.seeds]
+        seeds = {a.shown: a.seeds or suite.seeds for a in suite.algorithms}
+        specs += [_spec(suite, env, a, 0, s) for a in no_demos for s in seeds[a.shown]]
         specs += [
-            _spec(suite, env, a, n, s) for n in suite.demos for a in with_demos for s in suite.seeds
+            _spec(suite, env, a, n, s)
+            for n in suite.demos
+            for a in with_demos
+            for s in seeds[a.shown]
         ]
     return specs
 
@@ -309,10 +315,10 @@ def _envs(raw: Any) -> tuple[EnvSettings, ...]:
     return tuple(envs)
 
 
-def _seeds(raw: Any) -> tuple[int, ...]:
+def _seeds(raw: Any, key: str = "seeds") -> tuple[int, ...]:
     if isinstance(raw, list):
-        return _int_list(raw, "seeds", 0, None)
-    return tuple(range(_int(raw, "seeds", 1, None, what="a seed count or a list of seeds")))
+        return _int_list(raw, key, 0, None)
+    return tuple(range(_int(raw, key, 1, None, what="a seed count or a list of seeds")))
 
 
 def _runner(raw: Any) -> RunnerSettings:
@@ -335,15 +341,16 @@ def _runner(raw: Any) -> RunnerSettings:
 
 
 def _algorithms(raw: Any) -> tuple[AlgorithmEntry, ...]:
-    """Entries: `name`, `{name: {hyperparameter: value}}` or, for a labelled variant,
-    `{algorithm: name, label: text, hyperparameter: value, ...}`. A list where a hyperparameter
-    takes one value is a sweep: one variant per value (a grid over several lists)."""
+    """Entries: `name`, `{name: {hyperparameter: value}}` or `{algorithm: name, label: text,
+    seeds: 3, hyperparameter: value, ...}` (label and seeds optional). A list where a
+    hyperparameter takes one value is a sweep: one variant per value (a grid over several
+    lists)."""
     if not isinstance(raw, list) or not raw:
         raise _Invalid("algorithms", f"expected a non-empty list of names, got {_show(raw)}")
     entries: dict[str, AlgorithmEntry] = {}
     for i, item in enumerate(raw):
         key = f"algorithms[{i}]"
-        name, label, overrides = _entry(item, key)
+        name, label, seeds, overrides = _entry(item, key)
         try:
             algo = registry.get(name)
         except registry.RegistryError as e:
@@ -362,14 +369,19 @@ def _algorithms(raw: Any) -> tuple[AlgorithmEntry, ...]:
                 )
             uses_demos = algo.inputs in ("states", "actions")
             label_or_none = None if shown == name else shown
-            entries[shown] = AlgorithmEntry(name, resolved, uses_demos, label_or_none)
+            entries[shown] = AlgorithmEntry(name, resolved, uses_demos, label_or_none, seeds)
     return tuple(entries.values())
 
 
-def _entry(item: Any, key: str) -> tuple[str, str | None, dict]:
-    """(algorithm name, label or None, hyperparameter overrides) of one `algorithms` item."""
+def _entry(item: Any, key: str) -> tuple[str, str | None, tuple[int, ...] | None, dict]:
+    """(algorithm name, label, seeds, hyperparameter overrides) of one `algorithms` item;
+    label and seeds None unless given."""
     if isinstance(item, dict) and "algorithm" in item:
-        overrides = {k: v for k, v in item.items() if k not in ("algorithm", "label")}
+        reserved = ("algorithm", "label", "seeds")
+        overrides = {k: v for k, v in item.items() if k not in reserved}
+        seeds = None
+        if "seeds" in item:
+            seeds = _seeds(item["seeds"], f"{key}.seeds")
         name, label = item["algorithm"], item.get("label")
         if not isinstance(name, str):
             raise _Invalid(f"{key}.algorithm", f"expected an algorithm name, got {_show(name)}")
@@ -382,7 +394,7 @@ def _entry(item: Any, key: str) -> tuple[str, str | None, dict]:
             )
         if label is not None and label in registry.all_algorithms():
             raise _Invalid(f"{key}.label", f"{label!r} is an algorithm's name; pick another label")
-        return name, label, overrides
+        return name, label, seeds, overrides
     if isinstance(item, dict) and len(item) == 1:
         name, overrides = next(iter(item.items()))
         overrides = {} if overrides is None else overrides  # `- gaifo:` with nothing after
@@ -396,7 +408,7 @@ def _entry(item: Any, key: str) -> tuple[str, str | None, dict]:
         raise _Invalid(
             f"{key}.{name}", f"expected a mapping of hyperparameters, got {_show(overrides)}"
         )
-    return name, None, overrides
+    return name, None, None, overrides
 
 
 def _variants(

@@ -13,9 +13,9 @@ import pytest
 from matplotlib.patches import Rectangle
 
 from bench import normalize, plot, store
-from bench.runner import CostModel, _jobs, run_suite
+from bench.runner import CostModel, _jobs, estimate, run_suite
 from bench.suite import expand, load_suite
-from bench.types import TrialSpec
+from bench.types import TrialResult, TrialSpec
 
 PENDULUM = "InvertedPendulumBulletEnv-v0"
 
@@ -212,3 +212,21 @@ def test_two_variants_of_one_algorithm_run_and_plot_side_by_side(tmp_path, cli):
     assert [t.get_text() for t in fig.legends[0].get_texts()][:2] == ["GAIfO", "gaifo-no-absorbing"]
     out = cli("compare", str(tmp_path / "res"), str(tmp_path / "res"))
     assert out.returncode == 0 and "gaifo-no-absorbing" in out.stdout
+
+
+def test_estimate_from_seconds_per_step_here_or_at_most_the_slowest_env():
+    def done(env_id: str, algorithm: str, seconds: float, budget: int = 1000) -> TrialResult:
+        spec = TrialSpec("s", env_id, algorithm, 5, 0, budget, 10)
+        return TrialResult(spec, "ok", [1.0], [], budget, seconds, {})
+
+    records = [done("A", "gaifo", 10.0), done("A", "gaifo", 30.0), done("B", "gaifo", 100.0)]
+    todo = [
+        TrialSpec("s", env, algo, 5, seed, 2000, 10)
+        for env, algo in [("A", "gaifo"), ("C", "gaifo"), ("C", "bco")]
+        for seed in (1, 2)
+    ]
+    rows = {(r.env_id, r.algorithm): r for r in estimate(todo, records)}
+    assert rows["A", "gaifo"].seconds == pytest.approx(40.0) and rows["A", "gaifo"].trials == 2
+    assert rows["C", "gaifo"].seconds == pytest.approx(200.0)  # B's 0.1 s per step, the slowest
+    assert "B" in rows["C", "gaifo"].basis
+    assert rows["C", "bco"].seconds is None

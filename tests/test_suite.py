@@ -373,3 +373,13 @@ def test_bad_variants_are_one_line_errors(tmp_path, entries, message):
     with pytest.raises(SuiteError) as err:
         load_suite(write(tmp_path, base() | {"algorithms": entries}))
     assert message in str(err.value) and "\n" not in str(err.value)
+
+
+def test_an_entry_may_run_fewer_seeds(tmp_path):
+    raw = base() | {"algorithms": ["random", {"algorithm": "ifo", "seeds": 2}, "with-actions"]}
+    specs = expand(load_suite(write(tmp_path, raw)))
+    seeds = {a: sorted({s.seed for s in specs if s.algorithm == a}) for a in ("ifo", "random")}
+    assert seeds == {"ifo": [0, 1], "random": [0, 1, 2]}
+    bad = base() | {"algorithms": [{"algorithm": "ifo", "seeds": 0}]}
+    with pytest.raises(SuiteError, match=r"algorithms\[0\]\.seeds: expected a seed count"):
+        load_suite(write(tmp_path, bad))
