@@ -218,9 +218,9 @@ class Estimate:
 
 def estimate(specs: list[TrialSpec], records: Iterable[TrialResult]) -> list[Estimate]:
     """Expected cost of `specs` per (env, algorithm), from the seconds per env step that
-    finished `records` took: their mean on the same env if any, else the slowest env's (envs
-    step at different speeds, so that is a bound, not a guess). Records made while the
-    machine was busy make any estimate an upper bound."""
+    finished `records` took: their mean on the same env if any, else the slowest measured
+    env's (rough: envs step at different speeds). Records made while the machine was busy
+    make an estimate high."""
     per_step: dict[tuple[str, str], list[float]] = {}
     for r in records:
         if r.status == "ok" and r.spec.budget > 0:
@@ -240,7 +240,7 @@ def estimate(specs: list[TrialSpec], records: Iterable[TrialResult]) -> list[Est
         elif elsewhere:
             slowest = max(elsewhere, key=elsewhere.get)
             seconds = float(elsewhere[slowest]) * budget
-            basis = f"at most: as slow per step as on {slowest}"
+            basis = f"rough: per step as on {slowest}, the slowest measured"
         else:
             seconds, basis = None, f"no finished {algorithm} trial"
         out.append(Estimate(env_id, algorithm, len(group), seconds, basis))
