@@ -251,9 +251,9 @@ def _suite(raw: Any, default_name: str) -> Suite:
             check_env_id(env.env_id)
         except EnvError as e:
             raise _Invalid(f"envs.{env.env_id}", _one_line(str(e))) from None
-        if env.dataset is not None:
+        if env.dataset is not None:  # its demonstrator is the 1.0: no shipped expert needed
             _check_dataset(env, max(demos), algorithms)
-        if not paths.has_expert(env.env_id):
+        elif not paths.has_expert(env.env_id):
             raise _Invalid(
                 f"envs.{env.env_id}",
                 f"no trained expert in {paths.expert_dir(env.env_id)} (every suite needs one:"
