@@ -117,7 +117,9 @@ def test_a_trial_runs_from_an_imported_dataset_without_a_shipped_expert(
 ):
     dataset, _ = exported
     folder = str(minari.storage.get_dataset_path(dataset.id))
-    monkeypatch.setattr("bench.paths.EXPERTS_DIR", tmp_path / "no-experts")  # the 1.0 is the dataset
+    monkeypatch.setattr(
+        "bench.paths.EXPERTS_DIR", tmp_path / "no-experts"
+    )  # the 1.0 is the dataset
     suite = write_suite(tmp_path, folder, "random, expert, gaifo")
     assert cli.main(["run", str(suite), "--results", str(tmp_path / "res"), "--jobs", "1"]) == 0
     records = {r.spec.algorithm: r for r in store.scan(tmp_path / "res")}
