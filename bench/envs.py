@@ -16,6 +16,8 @@ from collections.abc import Iterator
 import gymnasium as gym
 import numpy as np
 
+from bench.pixels import Frames, PixelConfig
+
 PAPER_ENVS = (
     "InvertedPendulumBulletEnv-v0",
     "InvertedDoublePendulumBulletEnv-v0",
@@ -82,15 +84,22 @@ def check_env_id(env_id: str) -> None:
         raise EnvError(f"unknown env id {env_id!r}{hint}")
 
 
-def make(env_id: str, seed: int) -> gym.Env:
+def make(env_id: str, seed: int, pixels: PixelConfig | None = None) -> gym.Env:
     """Build `env_id`, reset it once with `seed`, and check its spaces.
 
     The first reset happens here (quietly: PyBullet connects to its physics
     server on it), so the env's random stream is fixed by `seed` alone.
+    With `pixels`, observations are stacked rendered frames (`bench.pixels.Frames`)
+    and the simulator state rides along in `info["state"]`.
     """
     check_env_id(env_id)
     with quiet_stdout():
-        env = gym.make(env_id, disable_env_checker=True)
+        if pixels is None:
+            env = gym.make(env_id, disable_env_checker=True)
+        else:
+            env = Frames(
+                gym.make(env_id, render_mode="rgb_array", disable_env_checker=True), pixels
+            )
         env.reset(seed=seed)
     if not isinstance(env.action_space, gym.spaces.Box):
         env.close()
