@@ -81,6 +81,12 @@ def versions() -> dict[str, str]:
     return {pkg: version(pkg) for pkg in ("ifo-bench", "torch", "gymnasium", "pybullet")}
 
 
+def demo_pool(env_id: str, dataset: str | None) -> Path:
+    """The demonstration pool file of `env_id`: converted from the Minari `dataset` if given,
+    else recorded from the shipped expert; made on first use, cached after."""
+    return minari_io.ensure_pool(dataset, env_id) if dataset else demos.ensure_pool(env_id)
+
+
 def trial_inputs(spec: TrialSpec) -> Any:
     """What the trial's algorithm is handed as `demos`, according to its `inputs`."""
     kind = registry.get(spec.algorithm).inputs
@@ -88,10 +94,7 @@ def trial_inputs(spec: TrialSpec) -> Any:
         return None
     if kind == "expert":
         return None if spec.dataset else experts.load_expert(spec.env_id)
-    if spec.dataset:
-        pool = minari_io.ensure_pool(spec.dataset, spec.env_id)
-    else:
-        pool = demos.ensure_pool(spec.env_id)
+    pool = demo_pool(spec.env_id, spec.dataset)
     if kind == "states":
         return demos.load_demos(pool, spec.env_id, spec.n_demos, spec.seed)
     return demos.load_action_demos(pool, spec.env_id, spec.n_demos, spec.seed)
@@ -281,7 +284,7 @@ def run_suite(
         if registry.get(s.algorithm).inputs in ("states", "actions")
     }
     for env_id, dataset in sorted(sources):  # demo pools made once, before forking
-        minari_io.ensure_pool(dataset, env_id) if dataset else demos.ensure_pool(env_id)
+        demo_pool(env_id, dataset or None)
     done = failed = 0
     bar = tqdm(
         total=len(todo), desc="trials", unit="trial", disable=not progress, dynamic_ncols=True

@@ -113,13 +113,12 @@ def expand(suite: Suite) -> list[TrialSpec]:
     with_demos = [a for a in suite.algorithms if a.uses_demos]
     specs = []
     for env in suite.envs:
-        seeds = {a.shown: a.seeds or suite.seeds for a in suite.algorithms}
-        specs += [_spec(suite, env, a, 0, s) for a in no_demos for s in seeds[a.shown]]
+        specs += [_spec(suite, env, a, 0, s) for a in no_demos for s in a.seeds or suite.seeds]
         specs += [
             _spec(suite, env, a, n, s)
             for n in suite.demos
             for a in with_demos
-            for s in seeds[a.shown]
+            for s in a.seeds or suite.seeds
         ]
     return specs
 
