@@ -29,10 +29,11 @@ from algorithms.common import (
     PolicyAverage,
     report_each_update,
 )
+from bench.pixels import PixelConfig
 from bench.registry import Logger, Task
 from bench.rl import absorbing
 from bench.rl.absorbing import Transitions
-from bench.rl.networks import DeterministicPolicy, RunningNorm, mlp
+from bench.rl.networks import ConvTrunk, DeterministicPolicy, PixelScale, RunningNorm, mlp
 from bench.rl.rollout import Batch, Rewards
 from bench.rl.trpo import TRPO, train
 from bench.types import Demos
@@ -82,30 +83,38 @@ GAIfO uses (s, s'), GAIL (s, a)."""
 
 
 class Discriminator(nn.Module):
-    """Logit of P(expert | transition); observations normalized with the policy's statistics."""
+    """Logit of P(expert | transition); observations normalized with the policy's statistics.
+
+    From frames, each observation first goes through D's own convolutional trunk, and D judges
+    (and its gradient penalty smooths) the features of s and s' like state vectors.
+    """
 
     def __init__(
         self,
-        norm: RunningNorm,
+        norm: RunningNorm | PixelScale,
         features: Features,
         obs_dim: int,
         act_dim: int,
         hidden: tuple[int, ...],
         with_absorbing: bool,
+        pixels: PixelConfig | None = None,
     ) -> None:
         super().__init__()
         self.norm, self.features, self.with_absorbing = norm, features, with_absorbing
-        state = torch.zeros(1, obs_dim + with_absorbing)
+        self.encoder = nn.Identity() if pixels is None else ConvTrunk(pixels.shape)
+        state = self.state(torch.zeros(1, obs_dim), torch.zeros(1, dtype=torch.bool))
         in_dim = features(state, torch.zeros(1, act_dim), state).shape[1]
         self.net = mlp([in_dim, *hidden, 1])
 
     def state(self, obs: torch.Tensor, is_absorbing: torch.Tensor) -> torch.Tensor:
-        """(N, O+1): normalized observation and the absorbing flag; the absorbing state is
-        (0, ..., 0, FLAG). (N, O), the observation alone, without absorbing states."""
+        """(N, F+1): the normalized observation (its trunk's features, from frames) and the
+        absorbing flag; the absorbing state is (0, ..., 0, FLAG). (N, F), the observation
+        alone, without absorbing states."""
+        seen = self.encoder(self.norm(obs))
         if not self.with_absorbing:
-            return self.norm(obs)
+            return seen
         flag = is_absorbing.float().unsqueeze(1)
-        return torch.cat([self.norm(obs) * (1.0 - flag), flag * absorbing.FLAG], dim=1)
+        return torch.cat([seen * (1.0 - flag), flag * absorbing.FLAG], dim=1)
 
     def inputs(self, x: Transitions) -> torch.Tensor:
         """The (N, F) feature rows D classifies."""
@@ -200,7 +209,7 @@ def train_adversarial(
 
     `expert_actions`: (T_i, A) per demonstration, for a variant whose features use them (GAIL).
     """
-    learner = TRPO(task.obs_dim, task.act_dim, cfg, seed, task.device)
+    learner = TRPO(task.obs_shape, task.act_dim, cfg, seed, task.device)
     device = learner.device
     to_device = lambda x: x.map(lambda a: torch.as_tensor(a, device=device))  # noqa: E731
     expert = expert_transitions(
@@ -208,9 +217,15 @@ def train_adversarial(
     )
     expert_x = to_device(expert)
     disc = Discriminator(
-        learner.policy.norm, features, task.obs_dim, task.act_dim, cfg.disc_hidden, cfg.absorbing
+        learner.policy.norm,
+        features,
+        task.obs_dim,
+        task.act_dim,
+        cfg.disc_hidden,
+        cfg.absorbing,
+        task.pixels,
     ).to(device)
-    opt = torch.optim.Adam(disc.net.parameters(), lr=cfg.disc_lr)
+    opt = torch.optim.Adam(disc.parameters(), lr=cfg.disc_lr)
     gen = torch.Generator().manual_seed(seed + 2)
     reward = REWARDS[cfg.reward]
     stats: dict[str, float] = {}

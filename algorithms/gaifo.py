@@ -19,6 +19,7 @@ def state_transition(s: torch.Tensor, a: torch.Tensor, s_next: torch.Tensor) -> 
     config=AdversarialConfig,
     inputs="states",
     description="GAIfO: discriminator on (s, s')",
+    pixels=True,
 )
 def train(
     task: Task, demos: Demos, budget: int, seed: int, logger: Logger, config: AdversarialConfig

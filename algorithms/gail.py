@@ -15,7 +15,11 @@ def state_action(s: torch.Tensor, a: torch.Tensor, s_next: torch.Tensor) -> torc
 
 
 @register(
-    "gail", config=AdversarialConfig, inputs="actions", description="GAIL: discriminator on (s, a)"
+    "gail",
+    config=AdversarialConfig,
+    inputs="actions",
+    description="GAIL: discriminator on (s, a)",
+    pixels=True,
 )
 def train(
     task: Task,

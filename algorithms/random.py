@@ -26,7 +26,11 @@ class UniformPolicy:
 
 
 @register(
-    "random", config=RandomConfig, inputs="none", description="uniform random actions (score 0)"
+    "random",
+    config=RandomConfig,
+    inputs="none",
+    description="uniform random actions (score 0)",
+    pixels=True,
 )
 def train(
     task: Task, demos: None, budget: int, seed: int, logger: Logger, config: RandomConfig

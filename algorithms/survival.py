@@ -12,6 +12,7 @@ from algorithms.common import (
     report_each_update,
 )
 from bench.registry import Logger, Policy, Task, register
+from bench.rl.trpo import TRPO
 from bench.rl.trpo import train as trpo_train
 
 
@@ -20,6 +21,7 @@ from bench.rl.trpo import train as trpo_train
     config=ImitationTRPOConfig,
     inputs="none",
     description="control: TRPO on +1 per step, no demos",
+    pixels=True,
 )
 def train(
     task: Task, demos: None, budget: int, seed: int, logger: Logger, config: ImitationTRPOConfig
@@ -29,9 +31,8 @@ def train(
         task.make_env,
         budget,
         seed,
-        config,
-        lambda batch: np.ones_like(batch.rewards),
-        report_each_update(task, logger, average=average),
-        device=task.device,
+        reward_fn=lambda batch: np.ones_like(batch.rewards),
+        callback=report_each_update(task, logger, average=average),
+        learner=TRPO(task.obs_shape, task.act_dim, config, seed, task.device),
     )
     return average.policy(learner, task)

@@ -9,6 +9,10 @@ included, and separately the actions and rewards, with the env id and shapes:
                                    where its time limit cut it
   actions      (sum T_i, A)        kept apart; read only by `load_action_demos`
   rewards      (sum T_i,)
+A pool recorded for visual observations also stores the video, one frame per observation
+(stacks are rebuilt on loading, `bench.pixels.stack_episode`), compressed:
+  frames       (sum (T_i + 1), c, H, W) uint8
+Pixel pools are caches like any other: they regenerate from the shipped experts.
 """
 
 from __future__ import annotations
@@ -21,6 +25,7 @@ import numpy as np
 
 from bench import atomic, envs, paths
 from bench.experts import load_expert
+from bench.pixels import PixelConfig, newest_frames, stack_episode
 from bench.types import ActionDemos, Demos
 
 POOL_SIZE = 25
@@ -37,19 +42,28 @@ class DemoError(ValueError):
     """A demo file that is missing, malformed, or recorded in another env."""
 
 
-def record(env_id: str, policy, n_episodes: int, seed: int) -> dict[str, np.ndarray]:
-    """Run `policy` (numpy, deterministic) for `n_episodes` full episodes; arrays as stored."""
-    env = envs.make(env_id, seed)
-    obs_eps, act_eps, rew_eps, terminated = [], [], [], []
+def record(
+    env_id: str, policy, n_episodes: int, seed: int, pixels: PixelConfig | None = None
+) -> dict[str, np.ndarray]:
+    """Run `policy` (numpy, deterministic, on states) for `n_episodes` full episodes; arrays as
+    stored. With `pixels`, the video of the same episodes is recorded too (rendering leaves the
+    physics alone, so states, actions and rewards are those of a recording without it)."""
+    env = envs.make(env_id, seed, pixels)
+    obs_eps, act_eps, rew_eps, terminated, frame_eps = [], [], [], [], []
+
+    def state(o: np.ndarray, info: dict) -> np.ndarray:
+        return np.asarray(o if pixels is None else info["state"], np.float32)
+
     try:
         for k in range(n_episodes):
-            o, _ = env.reset(seed=seed + k)
-            obs, acts, rews = [np.asarray(o, np.float32)], [], []
+            o, info = env.reset(seed=seed + k)
+            obs, acts, rews, views = [state(o, info)], [], [], [o]
             done = False
             while not done:
                 a = policy(obs[-1][None])[0]
-                o, r, term, trunc, _ = env.step(a)
-                obs.append(np.asarray(o, np.float32))  # the true final observation too
+                o, r, term, trunc, info = env.step(a)
+                obs.append(state(o, info))  # the true final observation too
+                views.append(o)
                 acts.append(np.asarray(a, np.float32))
                 rews.append(float(r))
                 done = term or trunc
@@ -57,9 +71,14 @@ def record(env_id: str, policy, n_episodes: int, seed: int) -> dict[str, np.ndar
             obs_eps.append(np.stack(obs))
             act_eps.append(np.stack(acts))
             rew_eps.append(np.asarray(rews, np.float32))
+            if pixels is not None:
+                frame_eps.append(newest_frames(np.stack(views), pixels))
     finally:
         env.close()
-    return pool_arrays(env_id, obs_eps, act_eps, rew_eps, terminated)
+    arrays = pool_arrays(env_id, obs_eps, act_eps, rew_eps, terminated)
+    if pixels is not None:
+        arrays["frames"] = np.concatenate(frame_eps)
+    return arrays
 
 
 def pool_arrays(
@@ -85,22 +104,26 @@ def pool_arrays(
 
 def save(path: Path, arrays: dict[str, np.ndarray]) -> Path:
     buf = io.BytesIO()
-    np.savez(buf, **arrays)
+    # Video compresses ~10x (a still background); states barely, and are read more often.
+    (np.savez_compressed if "frames" in arrays else np.savez)(buf, **arrays)
     atomic.write_bytes(path, buf.getvalue())
     return path
 
 
-def pool_path(env_id: str) -> Path:
-    """Cache path of `env_id`'s pool, keyed by the expert's weights so a retrained expert re-records."""
+def pool_path(env_id: str, pixels: PixelConfig | None = None) -> Path:
+    """Cache path of `env_id`'s pool, keyed by the expert's weights so a retrained expert
+    re-records, and by how frames are made if it holds video."""
     digest = hashlib.sha256((paths.expert_dir(env_id) / "policy.pt").read_bytes()).hexdigest()[:12]
-    return paths.CACHE_DIR / "demos" / f"{env_id}-{digest}-{FORMAT}.npz"
+    video = "" if pixels is None else f"-frames{pixels.size}{'g' if pixels.grayscale else 'rgb'}"
+    return paths.CACHE_DIR / "demos" / f"{env_id}-{digest}-{FORMAT}{video}.npz"
 
 
-def ensure_pool(env_id: str) -> Path:
-    """Path of the expert's demonstration pool, recording it first if it is not cached."""
-    path = pool_path(env_id)
+def ensure_pool(env_id: str, pixels: PixelConfig | None = None) -> Path:
+    """Path of the expert's demonstration pool (with video, given `pixels`), recording it first
+    if it is not cached."""
+    path = pool_path(env_id, pixels)
     if not path.exists():
-        save(path, record(env_id, load_expert(env_id), POOL_SIZE, POOL_SEED))
+        save(path, record(env_id, load_expert(env_id), POOL_SIZE, POOL_SEED, pixels))
     return path
 
 
@@ -134,19 +157,46 @@ def _pick(n_pool: int, k: int | None, seed: int) -> np.ndarray:
     return np.sort(np.random.default_rng([seed, k]).choice(n_pool, size=k, replace=False))
 
 
-def load_demos(path: Path, env_id: str, k: int | None = None, seed: int = 0) -> Demos:
-    """State-only demonstrations: k episodes drawn by `seed` (all if k is None). Never reads actions."""
+def load_demos(
+    path: Path,
+    env_id: str,
+    k: int | None = None,
+    seed: int = 0,
+    pixels: PixelConfig | None = None,
+) -> Demos:
+    """State-only demonstrations: k episodes drawn by `seed` (all if k is None). Never reads
+    actions. With `pixels`, each episode is its video as the imitator would see it: (T_i + 1,
+    C*H*W) uint8 stacks of frames, the same episodes as without."""
     data = _open(path, env_id)
-    eps = split_episodes(data["obs"], data["obs_lengths"])
-    idx = _pick(len(eps), k, seed)
+    lengths = data["obs_lengths"]
+    idx = _pick(len(lengths), k, seed)
+    if pixels is None:
+        eps = split_episodes(data["obs"], lengths)
+        chosen = tuple(eps[i] for i in idx)
+    else:
+        if "frames" not in data.files:
+            raise DemoError(f"{path} holds no video (record it with pixels)")
+        video = data["frames"]  # decompressed on each access: once
+        if video.shape[1:] != pixels.frame_shape:
+            raise DemoError(
+                f"{path} holds frames of shape {video.shape[1:]}, not {pixels.frame_shape}"
+            )
+        frames = split_episodes(video, lengths)
+        chosen = tuple(stack_episode(frames[i], pixels) for i in idx)
     terminated = data["terminated"]
-    return Demos(env_id, tuple(eps[i] for i in idx), tuple(bool(terminated[i]) for i in idx))
+    return Demos(env_id, chosen, tuple(bool(terminated[i]) for i in idx))
 
 
-def load_action_demos(path: Path, env_id: str, k: int | None = None, seed: int = 0) -> ActionDemos:
-    """The same episodes as `load_demos(path, env_id, k, seed)`, with the expert's actions."""
+def load_action_demos(
+    path: Path,
+    env_id: str,
+    k: int | None = None,
+    seed: int = 0,
+    pixels: PixelConfig | None = None,
+) -> ActionDemos:
+    """The same episodes as `load_demos(path, env_id, k, seed, pixels)`, with the expert's actions."""
     data = _open(path, env_id)
-    demos = load_demos(path, env_id, k, seed)
+    demos = load_demos(path, env_id, k, seed, pixels)
     lengths = data["obs_lengths"]
     acts = split_episodes(data["actions"], lengths - 1)
     idx = _pick(len(lengths), k, seed)

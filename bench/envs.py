@@ -89,16 +89,17 @@ def make(env_id: str, seed: int, pixels: PixelConfig | None = None) -> gym.Env:
 
     The first reset happens here (quietly: PyBullet connects to its physics
     server on it), so the env's random stream is fixed by `seed` alone.
-    With `pixels`, observations are stacked rendered frames (`bench.pixels.Frames`)
-    and the simulator state rides along in `info["state"]`.
+    With `pixels`, observations are stacked rendered frames (`bench.pixels.Frames`),
+    flattened to (C*H*W,) uint8 like every observation the harness passes around
+    (`pixels.shape` restores them), and the simulator state rides along in `info["state"]`.
     """
     check_env_id(env_id)
     with quiet_stdout():
         if pixels is None:
             env = gym.make(env_id, disable_env_checker=True)
         else:
-            env = Frames(
-                gym.make(env_id, render_mode="rgb_array", disable_env_checker=True), pixels
+            env = gym.wrappers.FlattenObservation(
+                Frames(gym.make(env_id, render_mode="rgb_array", disable_env_checker=True), pixels)
             )
         env.reset(seed=seed)
     if not isinstance(env.action_space, gym.spaces.Box):
@@ -117,9 +118,11 @@ def make(env_id: str, seed: int, pixels: PixelConfig | None = None) -> gym.Env:
     return env
 
 
-def spaces(env_id: str) -> tuple[int, int, np.ndarray, np.ndarray]:
-    """(obs_dim, act_dim, action low, action high) of `env_id`."""
-    env = make(env_id, seed=0)
+def spaces(
+    env_id: str, pixels: PixelConfig | None = None
+) -> tuple[int, int, np.ndarray, np.ndarray]:
+    """(obs_dim, act_dim, action low, action high) of `env_id` (seen through `pixels`, if given)."""
+    env = make(env_id, seed=0, pixels=pixels)
     try:
         return (
             int(np.prod(env.observation_space.shape)),

@@ -36,10 +36,32 @@ class PixelConfig:
             raise ValueError(f"frames need size >= 8 and stack >= 1, not {self.size}, {self.stack}")
 
     @property
+    def frame_channels(self) -> int:
+        return 1 if self.grayscale else 3
+
+    @property
     def shape(self) -> tuple[int, int, int]:
         """(channels, height, width) of one observation."""
-        channels = (1 if self.grayscale else 3) * self.stack
-        return (channels, self.size, self.size)
+        return (self.frame_channels * self.stack, self.size, self.size)
+
+    @property
+    def frame_shape(self) -> tuple[int, int, int]:
+        """(channels, height, width) of one frame."""
+        return (self.frame_channels, self.size, self.size)
+
+
+def newest_frames(observations: np.ndarray, cfg: PixelConfig) -> np.ndarray:
+    """The last frame of each flat observation: (N, C*H*W) -> (N, c, H, W), what a pool stores
+    (a stack repeats each frame `stack` times)."""
+    return observations.reshape(-1, *cfg.shape)[:, -cfg.frame_channels :]
+
+
+def stack_episode(frames: np.ndarray, cfg: PixelConfig) -> np.ndarray:
+    """An episode's (T + 1, c, H, W) frames -> its (T + 1, C*H*W) flat observations, exactly as
+    `Frames` produced them: frame t stacked after its `stack - 1` predecessors, the first frame
+    standing in for those before the episode began."""
+    index = np.arange(len(frames))[:, None] + np.arange(1 - cfg.stack, 1)[None, :]
+    return frames[np.maximum(index, 0)].reshape(len(frames), -1)
 
 
 class Frames(gym.Wrapper):

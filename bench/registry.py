@@ -19,7 +19,9 @@ An algorithm is one function plus a config dataclass::
 
 `inputs` says what `demos` is: "states" -> `Demos` (no actions, by type),
 "actions" -> `ActionDemos` (GAIL only), "expert" -> the expert `Policy`,
-"none" -> None. Every algorithm, built-in or not, registers through the
+"none" -> None. `pixels=True` says the algorithm can also learn from video: in
+a suite env with `observation: pixels`, observations (its envs' and the demos')
+are flat uint8 stacks of frames and `task.pixels` says how to reshape them. Every algorithm, built-in or not, registers through the
 entry-point group `ifo_bench.algorithms`, whose entry points name a module
 (or callable) to import, e.g. in a package's pyproject.toml::
 
@@ -37,6 +39,8 @@ from typing import Any, Literal, Protocol
 
 import gymnasium as gym
 import numpy as np
+
+from bench.pixels import PixelConfig
 
 Inputs = Literal["none", "states", "actions", "expert"]
 ENTRY_POINT_GROUP = "ifo_bench.algorithms"
@@ -61,6 +65,14 @@ class Task:
     """make_env(seed) -> a fresh env whose every step counts against the trial's budget."""
     device: str = "cpu"
     """Where networks live; "cuda" when the runner was asked for a GPU."""
+    pixels: PixelConfig | None = None
+    """None: observations are the env's state vectors. Else they are (obs_dim,) uint8 flat
+    stacks of rendered frames, `obs.reshape(-1, *pixels.shape)` their (C, H, W) images."""
+
+    @property
+    def obs_shape(self) -> tuple[int, ...]:
+        """One observation's shape as networks should see it: (O,) or (C, H, W)."""
+        return (self.obs_dim,) if self.pixels is None else self.pixels.shape
 
 
 class Logger(Protocol):
@@ -87,6 +99,8 @@ class Algorithm:
     """A dataclass; suite overrides become config(**overrides)."""
     inputs: Inputs
     description: str = ""
+    pixels: bool = False
+    """It can learn from rendered frames (a suite env with `observation: pixels`)."""
 
     @property
     def uses_actions(self) -> bool:
@@ -114,7 +128,7 @@ _loaded = False
 
 
 def register(
-    name: str, *, config: type, inputs: Inputs, description: str = ""
+    name: str, *, config: type, inputs: Inputs, description: str = "", pixels: bool = False
 ) -> Callable[[TrainFn], TrainFn]:
     """Decorator: register `train` under `name`."""
     if inputs not in ("none", "states", "actions", "expert"):
@@ -124,7 +138,7 @@ def register(
 
     def wrap(train: TrainFn) -> TrainFn:
         doc = description or (train.__doc__ or "").strip().split("\n")[0]
-        _ALGORITHMS[name] = Algorithm(name, train, config, inputs, doc)
+        _ALGORITHMS[name] = Algorithm(name, train, config, inputs, doc, pixels)
         return train
 
     return wrap

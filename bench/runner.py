@@ -25,6 +25,7 @@ import torch
 from tqdm import tqdm
 
 from bench import demos, envs, experts, minari_io, registry, store
+from bench.pixels import PixelConfig
 from bench.rl.rollout import evaluate
 from bench.types import CurvePoint, TrialResult, TrialSpec
 
@@ -81,10 +82,21 @@ def versions() -> dict[str, str]:
     return {pkg: version(pkg) for pkg in ("ifo-bench", "torch", "gymnasium", "pybullet")}
 
 
-def demo_pool(env_id: str, dataset: str | None) -> Path:
+def pixels(spec: TrialSpec) -> PixelConfig | None:
+    """How the trial's algorithm sees its env: frames in a pixel suite env (the expert, which
+    cannot learn from them, acts on states there too), else None (states)."""
+    if spec.observation == "pixels" and registry.get(spec.algorithm).pixels:
+        return PixelConfig()
+    return None
+
+
+def demo_pool(env_id: str, dataset: str | None, video: PixelConfig | None = None) -> Path:
     """The demonstration pool file of `env_id`: converted from the Minari `dataset` if given,
-    else recorded from the shipped expert; made on first use, cached after."""
-    return minari_io.ensure_pool(dataset, env_id) if dataset else demos.ensure_pool(env_id)
+    else recorded from the shipped expert (with its video, given `video`); made on first use,
+    cached after."""
+    if dataset:
+        return minari_io.ensure_pool(dataset, env_id)
+    return demos.ensure_pool(env_id, video)
 
 
 def trial_inputs(spec: TrialSpec) -> Any:
@@ -94,23 +106,29 @@ def trial_inputs(spec: TrialSpec) -> Any:
         return None
     if kind == "expert":
         return None if spec.dataset else experts.load_expert(spec.env_id)
-    pool = demo_pool(spec.env_id, spec.dataset)
-    if kind == "states":
-        return demos.load_demos(pool, spec.env_id, spec.n_demos, spec.seed)
-    return demos.load_action_demos(pool, spec.env_id, spec.n_demos, spec.seed)
+    video = pixels(spec)
+    pool = demo_pool(spec.env_id, spec.dataset, video)
+    load = demos.load_demos if kind == "states" else demos.load_action_demos
+    return load(pool, spec.env_id, spec.n_demos, spec.seed, video)
+
+
+def make_env(spec: TrialSpec, seed: int) -> gym.Env:
+    """An env of the trial, observed as its algorithm observes it."""
+    return envs.make(spec.env_id, seed, pixels(spec))
 
 
 def make_task(spec: TrialSpec, tally: list[int], device: str = "cpu") -> registry.Task:
     """The trial's Task: its envs count every step into `tally[0]` and stop past the budget."""
-    obs_dim, act_dim, low, high = envs.spaces(spec.env_id)
+    obs_dim, act_dim, low, high = envs.spaces(spec.env_id, pixels(spec))
     return registry.Task(
         spec.env_id,
         obs_dim,
         act_dim,
         low,
         high,
-        make_env=lambda s: StepCounter(envs.make(spec.env_id, s), tally, spec.budget),
+        make_env=lambda s: StepCounter(make_env(spec, s), tally, spec.budget),
         device=device,
+        pixels=pixels(spec),
     )
 
 
@@ -127,9 +145,7 @@ def run_trial(spec: TrialSpec, inputs: Any, device: str = "cpu") -> TrialResult:
         torch.manual_seed(spec.seed)
         algo = registry.get(spec.algorithm)
         given = algo.inputs
-        eval_envs += [
-            envs.make(spec.env_id, eval_seed + i) for i in range(min(10, spec.eval_episodes))
-        ]
+        eval_envs += [make_env(spec, eval_seed + i) for i in range(min(10, spec.eval_episodes))]
         if spec.dataset and algo.inputs == "expert":
             # The demonstrator of an imported dataset cannot be run: its returns stand in.
             returns, reference = minari_io.expert_reference(minari_io.open_dataset(spec.dataset))
@@ -279,12 +295,12 @@ def run_suite(
         if r.status == "ok":
             costs.observe(r.spec, r.wall_time)
     sources = {
-        (s.env_id, s.dataset or "")
+        (s.env_id, s.dataset or "", pixels(s))
         for s in todo
         if registry.get(s.algorithm).inputs in ("states", "actions")
     }
-    for env_id, dataset in sorted(sources):  # demo pools made once, before forking
-        demo_pool(env_id, dataset or None)
+    for env_id, dataset, video in sources:  # demo pools made once, before forking
+        demo_pool(env_id, dataset or None, video)
     done = failed = 0
     bar = tqdm(
         total=len(todo), desc="trials", unit="trial", disable=not progress, dynamic_ncols=True

@@ -5,6 +5,8 @@ A suite names everything one experiment runs::
     name: quick            # optional, defaults to the file stem; results go to results/<name>/
     envs:                  # env id -> settings; budget = env steps per training trial
       InvertedPendulumBulletEnv-v0: {budget: 100000}
+      # optional per env: dataset (a Minari dataset's demos instead of the shipped expert's),
+      # observation: pixels (learners see stacked 64x64 grayscale frames, demos are video)
     demos: [1, 5, 10, 25]  # demonstration counts: distinct ints in 1..DEMO_POOL_SIZE
     algorithms:            # a name, or {name: {hyperparameter: value}}
       - random
@@ -40,7 +42,8 @@ from bench.types import TrialSpec
 
 _SUITE_KEYS = ("name", "envs", "demos", "algorithms", "seeds", "eval_episodes", "runner")
 _REQUIRED_KEYS = ("envs", "demos", "algorithms")
-_ENV_KEYS = ("budget", "dataset")
+_ENV_KEYS = ("budget", "dataset", "observation")
+_OBSERVATIONS = ("states", "pixels")
 _RUNNER_KEYS = ("jobs", "backend")
 _BACKENDS = ("loky", "dask")
 _NAME_PATTERN = re.compile(r"[A-Za-z0-9][A-Za-z0-9._-]*")  # it becomes a folder name
@@ -67,6 +70,8 @@ class EnvSettings:
     dataset: str | None = None
     """A Minari dataset (folder or local id) to take demonstrations from instead of the
     shipped expert's pool."""
+    observation: str | None = None
+    """None: learners observe states; "pixels": stacked rendered frames (`bench.pixels`)."""
 
 
 @dataclass(frozen=True)
@@ -162,6 +167,7 @@ def _spec(
         hyperparams=dict(algo.hyperparams),  # a copy: specs outlive the suite
         label=algo.label,
         dataset=env.dataset,
+        observation=env.observation,
     )
 
 
@@ -250,6 +256,8 @@ def _suite(raw: Any, default_name: str) -> Suite:
             check_env_id(env.env_id)
         except EnvError as e:
             raise _Invalid(f"envs.{env.env_id}", _one_line(str(e))) from None
+        if env.observation == "pixels":
+            _check_pixel_learners(env, algorithms)
         if env.dataset is not None:  # its demonstrator is the 1.0: no shipped expert needed
             _check_dataset(env, max(demos), algorithms)
         elif not paths.has_expert(env.env_id):
@@ -259,6 +267,22 @@ def _suite(raw: Any, default_name: str) -> Suite:
                 " it is the 1.0 of normalized scores; train it with `bench experts`)",
             )
     return Suite(name, envs, demos, algorithms, seeds, eval_episodes, runner)
+
+
+def _check_pixel_learners(env: EnvSettings, algorithms: tuple) -> None:
+    """Every algorithm of a pixel env learns from frames, except the expert, which acts on the
+    simulator state in either setting (its return is the task's, whatever the learners see)."""
+    blind = [
+        a.shown
+        for a in algorithms
+        if not registry.get(a.name).pixels and registry.get(a.name).inputs != "expert"
+    ]
+    if blind:
+        takes = sorted(n for n, a in registry.all_algorithms().items() if a.pixels)
+        raise _Invalid(
+            f"envs.{env.env_id}.observation",
+            f"{', '.join(blind)} cannot learn from pixels (those that can: {', '.join(takes)})",
+        )
 
 
 def _check_dataset(env: EnvSettings, most_demos: int, algorithms: tuple) -> None:
@@ -310,7 +334,19 @@ def _envs(raw: Any) -> tuple[EnvSettings, ...]:
                 f"{key}.dataset", f"expected a dataset folder or Minari id, got {_show(dataset)}"
             )
         budget = _int(settings["budget"], f"{key}.budget", 1, None)
-        envs.append(EnvSettings(env_id, budget, dataset))
+        observation = settings.get("observation", "states")
+        if observation not in _OBSERVATIONS:
+            raise _Invalid(
+                f"{key}.observation",
+                f"expected one of {', '.join(_OBSERVATIONS)}, got {_show(observation)}",
+            )
+        if observation == "pixels" and dataset is not None:
+            raise _Invalid(
+                f"{key}.observation", "pixels need video demonstrations; a dataset holds states"
+            )
+        envs.append(
+            EnvSettings(env_id, budget, dataset, None if observation == "states" else observation)
+        )
     return tuple(envs)
 
 

@@ -98,10 +98,13 @@ class TrialSpec:
     dataset: str | None = None
     """A Minari dataset (folder or id) the demonstrations come from (None: the shipped
     expert's pool)."""
+    observation: str | None = None
+    """What the learner observes: None for the env's state vector, "pixels" for stacked
+    rendered frames (`bench.pixels`); demonstrations are then the expert's video."""
 
     def canonical(self) -> str:
         spec = asdict(self)
-        for optional in ("label", "dataset"):
+        for optional in ("label", "dataset", "observation"):
             if spec[optional] is None:
                 del spec[optional]  # so specs from before these fields existed keep their ids
         return json.dumps(spec, sort_keys=True, separators=(",", ":"))

@@ -1,21 +1,27 @@
 import numpy as np
 import pytest
 
-from bench import envs
+from bench import demos, envs, store
+from bench.experts import load_expert
 from bench.pixels import PixelConfig
+from bench.runner import run_suite
+from bench.suite import expand, load_suite
+from bench.types import Demos
 
 HOPPER = "HopperBulletEnv-v0"
 
 
 def test_frames_are_stacked_small_uint8_images_oldest_first():
-    env = envs.make(HOPPER, 0, PixelConfig(size=32, stack=3))
-    first, info = env.reset(seed=0)
-    assert first.shape == (3, 32, 32) and first.dtype == np.uint8
-    assert env.observation_space.contains(first)
+    cfg = PixelConfig(size=32, stack=3)
+    env = envs.make(HOPPER, 0, cfg)
+    flat, info = env.reset(seed=0)
+    assert flat.shape == (3 * 32 * 32,) and flat.dtype == np.uint8
+    assert env.observation_space.contains(flat)
+    first = flat.reshape(cfg.shape)
     assert (first == first[:1]).all(), "a new episode's stack repeats its first frame"
     prev = first
     for _ in range(5):
-        obs, *_ = env.step(env.action_space.sample())
+        obs = env.step(env.action_space.sample())[0].reshape(cfg.shape)
         np.testing.assert_array_equal(obs[:-1], prev[1:])  # shifted by one frame
         prev = obs
     assert not np.array_equal(obs[-1], obs[0]), "the hopper moved, so the frames differ"
@@ -24,9 +30,11 @@ def test_frames_are_stacked_small_uint8_images_oldest_first():
 
 
 def test_colour_frames_have_three_channels_each():
-    env = envs.make("InvertedPendulumBulletEnv-v0", 0, PixelConfig(size=16, grayscale=False))
+    cfg = PixelConfig(size=16, grayscale=False)
+    assert cfg.shape == (12, 16, 16)
+    env = envs.make("InvertedPendulumBulletEnv-v0", 0, cfg)
     obs, _ = env.reset(seed=0)
-    assert obs.shape == (12, 16, 16)
+    assert obs.shape == (12 * 16 * 16,)
     env.close()
 
 
@@ -48,3 +56,52 @@ def test_rendering_leaves_the_physics_and_its_seeding_alone():
 def test_unusable_frame_settings_are_refused():
     with pytest.raises(ValueError, match="size >= 8"):
         PixelConfig(size=4)
+
+
+PENDULUM = "InvertedPendulumBulletEnv-v0"
+
+
+def test_pixel_demos_are_the_experts_video_as_the_imitator_sees_it(tmp_path):
+    cfg = PixelConfig(size=16, stack=3)
+    expert = load_expert(PENDULUM)
+    video = demos.record(PENDULUM, expert, 2, 20_000, cfg)
+    states = demos.record(PENDULUM, expert, 2, 20_000)
+    for key in ("obs", "actions", "rewards", "terminated"):  # the same episodes, filmed
+        np.testing.assert_array_equal(video[key], states[key])
+    path = demos.save(tmp_path / "pool.npz", video)
+    shown = demos.load_demos(path, PENDULUM, pixels=cfg)
+    assert isinstance(shown, Demos) and not hasattr(shown, "actions")
+    first = shown.observations[0]
+    assert first.dtype == np.uint8 and first.shape == (len(video["obs"]) // 2, 3 * 16 * 16)
+    env = envs.make(PENDULUM, 0, cfg)  # replay episode 0 with the imitator's camera
+    seen, info = env.reset(seed=20_000)
+    replay = [seen]
+    for _ in range(40):
+        seen, *_, info = env.step(expert(info["state"][None])[0])
+        replay.append(seen)
+    env.close()
+    np.testing.assert_array_equal(first[:41], np.stack(replay))
+    with pytest.raises(demos.DemoError, match="holds frames of shape"):
+        demos.load_demos(path, PENDULUM, pixels=PixelConfig(size=32))
+    plain = demos.save(tmp_path / "states.npz", states)
+    with pytest.raises(demos.DemoError, match="holds no video"):
+        demos.load_demos(plain, PENDULUM, pixels=cfg)
+
+
+@pytest.mark.usefixtures("demo_cache")
+def test_a_tiny_pixel_suite_runs_end_to_end(tmp_path, monkeypatch):
+    monkeypatch.setattr(demos, "POOL_SIZE", 2)  # filming 25 episodes at 64x64 takes ~15 s
+    tiny = "{n_envs: 2, steps_per_env: 64}"
+    (tmp_path / "s.yaml").write_text(
+        f"name: px\nenvs: {{{PENDULUM}: {{budget: 256, observation: pixels}}}}\ndemos: [1]\n"
+        f"algorithms: [random, expert, gaifo: {tiny}, survival: {tiny}]\n"
+        "seeds: [0]\neval_episodes: 2\n"
+    )
+    specs = expand(load_suite(tmp_path / "s.yaml"))
+    assert run_suite(specs, tmp_path / "res", jobs=2, progress=False).failed == 0
+    records = {r.spec.algorithm: r for r in store.scan(tmp_path / "res")}
+    assert set(records) == {"random", "expert", "gaifo", "survival"}
+    assert records["expert"].returns == [1000.0, 1000.0], "the expert still acts on states"
+    for learner in ("gaifo", "survival"):
+        assert records[learner].env_steps == 256 and len(records[learner].logs["kl"]) == 2
+    assert {"disc_loss", "reward_absorbing"} <= set(records["gaifo"].logs)

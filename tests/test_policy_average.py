@@ -8,7 +8,7 @@ from bench.rl.networks import GaussianPolicy
 
 
 def policy_with(value: float, obs_mean: float) -> GaussianPolicy:
-    policy = GaussianPolicy(obs_dim=3, act_dim=2, hidden=(4,))
+    policy = GaussianPolicy(obs_shape=3, act_dim=2, hidden=(4,))
     with torch.no_grad():
         for p in policy.parameters():
             p.fill_(value)
@@ -28,8 +28,8 @@ def test_average_follows_the_hand_computed_recurrence():
 
 def test_decay_zero_is_the_latest_policy_exactly():
     average = PolicyAverage(decay=0.0)
-    latest = GaussianPolicy(obs_dim=3, act_dim=2)
-    average.update(GaussianPolicy(obs_dim=3, act_dim=2))
+    latest = GaussianPolicy(obs_shape=3, act_dim=2)
+    average.update(GaussianPolicy(obs_shape=3, act_dim=2))
     average.update(latest)
     obs = torch.randn(5, 3)
     assert torch.equal(average.weights(obs), latest(obs))

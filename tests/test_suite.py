@@ -37,7 +37,7 @@ def algorithms(monkeypatch):
     """A private registry with two references and two learners; the real one is left alone."""
     monkeypatch.setattr(registry, "_loaded", True)
     monkeypatch.setattr(registry, "_ALGORITHMS", {})
-    registry.register("random", config=NoConfig, inputs="none")(_train)
+    registry.register("random", config=NoConfig, inputs="none", pixels=True)(_train)
     registry.register("expert", config=NoConfig, inputs="expert")(_train)
     registry.register("ifo", config=IfoConfig, inputs="states")(_train)
     registry.register("with-actions", config=NoConfig, inputs="actions")(_train)
@@ -257,6 +257,21 @@ BAD = [
         lambda r: _set(r, ("envs",), {NO_EXPERT: {"budget": 5}}),
         f"envs.{NO_EXPERT}: no trained expert in",
     ),
+    (
+        lambda r: _set(r, ("envs", PENDULUM, "observation"), "video"),
+        f"envs.{PENDULUM}.observation: expected one of states, pixels, got 'video'",
+    ),
+    (
+        lambda r: _set(
+            r, ("envs", PENDULUM), {"budget": 5, "observation": "pixels", "dataset": "d"}
+        ),
+        f"envs.{PENDULUM}.observation: pixels need video demonstrations; a dataset holds states",
+    ),
+    (
+        lambda r: _set(r, ("envs", PENDULUM, "observation"), "pixels"),
+        f"envs.{PENDULUM}.observation: ifo, with-actions cannot learn from pixels"
+        " (those that can: random)",
+    ),
 ]
 
 
@@ -383,3 +398,14 @@ def test_an_entry_may_run_fewer_seeds(tmp_path):
     bad = base() | {"algorithms": [{"algorithm": "ifo", "seeds": 0}]}
     with pytest.raises(SuiteError, match=r"algorithms\[0\]\.seeds: expected a seed count"):
         load_suite(write(tmp_path, bad))
+
+
+def test_a_pixel_env_marks_its_trials_and_keeps_state_trial_ids(tmp_path):
+    raw = base() | {"name": "s", "algorithms": ["random", "expert"]}
+    states = expand(load_suite(write(tmp_path, raw)))
+    _set(raw, ("envs", PENDULUM, "observation"), "pixels")  # the expert acts on states there too
+    pixels = expand(load_suite(write(tmp_path, raw, "p.yaml")))
+    seen = {(s.env_id, s.observation) for s in pixels}
+    assert seen == {(PENDULUM, "pixels"), (HOPPER, None)}
+    state_ids = {s.trial_id for s in states}
+    assert all((s.trial_id in state_ids) == (s.env_id == HOPPER) for s in pixels)

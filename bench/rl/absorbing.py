@@ -57,6 +57,8 @@ from typing import Any
 
 import numpy as np
 
+from bench.rl.rollout import observation
+
 FLAG = 10.0
 """The absorbing flag's value in a learner's input, against O(1) normalized features. A flag of
 1 would put the absorbing state within one unit of the data's centre, where a smooth
@@ -85,11 +87,11 @@ class Transitions:
     """
 
     obs: Any
-    """(N, O) float32."""
+    """(N, O) float32 (uint8 for flat frames, kept so: a quarter of the memory)."""
     actions: Any
     """(N, A) float32; zeros in an absorbing tail."""
     next_obs: Any
-    """(N, O) float32."""
+    """(N, O), like obs."""
     obs_absorbing: Any
     """(N,) bool: s is the absorbing state."""
     next_absorbing: Any
@@ -123,9 +125,9 @@ class Transitions:
         """Transitions between real (non-absorbing) observations."""
         live = np.zeros(len(obs), dtype=bool)
         return Transitions(
-            np.asarray(obs, np.float32),
+            observation(obs),
             np.asarray(actions, np.float32),
-            np.asarray(next_obs, np.float32),
+            observation(next_obs),
             live,
             live.copy(),
             np.ones(len(obs), np.float32),
@@ -136,9 +138,9 @@ def tails(final_obs: np.ndarray, act_dim: int, gamma: float) -> Transitions:
     """The absorbing tails of n terminated episodes: 2n rows, the n (s_T, 0, s_a) first (weight
     1), then n copies of the loop (s_a, 0, s_a) (weight 1/(1 - gamma)).
     final_obs: (n, O), each episode's terminal observation."""
-    final_obs = np.asarray(final_obs, np.float32)
+    final_obs = observation(final_obs)
     n, obs_dim = final_obs.shape
-    zeros_obs = np.zeros((n, obs_dim), np.float32)
+    zeros_obs = np.zeros((n, obs_dim), final_obs.dtype)
     no, yes = np.zeros(n, dtype=bool), np.ones(n, dtype=bool)
     return Transitions(
         obs=np.concatenate([final_obs, zeros_obs]),

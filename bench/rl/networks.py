@@ -1,4 +1,8 @@
-"""Policy and value networks, and the running observation normalizer they share."""
+"""Policy and value networks, and the observation normalizer they share.
+
+Observations are vectors (O,), or flat frames whose image shape (C, H, W) is given: then
+the normalizer scales pixels to [0, 1] and every network starts with a small convolutional
+trunk (`body`)."""
 
 from __future__ import annotations
 
@@ -47,6 +51,35 @@ class RunningNorm(nn.Module):
         return ((x - mean) / std).clamp(-self.clip, self.clip)
 
 
+class PixelScale(nn.Module):
+    """Frames' normalizer: flat uint8 (B, C*H*W) -> (B, C, H, W) floats in [0, 1]. Fixed: pixels
+    have known bounds, and statistics of a mostly still background would amplify noise."""
+
+    def __init__(self, shape: tuple[int, int, int]) -> None:
+        super().__init__()
+        self.shape = tuple(shape)
+
+    def update(self, x: np.ndarray) -> None:
+        """Nothing to learn (RunningNorm's interface)."""
+
+    def forward(self, x: torch.Tensor) -> torch.Tensor:
+        return x.to(torch.float32).reshape(-1, *self.shape) / 255.0
+
+
+ObsShape = int | tuple[int, ...]
+"""O for vectors, (C, H, W) for frames."""
+
+
+def _shape(obs_shape: ObsShape) -> tuple[int, ...]:
+    return (obs_shape,) if isinstance(obs_shape, int) else tuple(obs_shape)
+
+
+def normalizer(obs_shape: ObsShape) -> RunningNorm | PixelScale:
+    """RunningNorm for vectors, PixelScale for frames."""
+    shape = _shape(obs_shape)
+    return RunningNorm(shape[0]) if len(shape) == 1 else PixelScale(shape)
+
+
 def mlp(sizes: list[int], activation: type[nn.Module] = nn.Tanh) -> nn.Sequential:
     layers: list[nn.Module] = []
     for i in range(len(sizes) - 1):
@@ -56,22 +89,57 @@ def mlp(sizes: list[int], activation: type[nn.Module] = nn.Tanh) -> nn.Sequentia
     return nn.Sequential(*layers)
 
 
+class ConvTrunk(nn.Module):
+    """(B, C, H, W) images in [0, 1] -> (B, F) features: the first two layers of the DQN
+    encoder (8x8 stride 4, 4x4 stride 2, ReLU) at half its width, small enough for CPUs."""
+
+    def __init__(self, shape: tuple[int, int, int]) -> None:
+        super().__init__()
+        channels = shape[0]
+        self.net = nn.Sequential(
+            nn.Conv2d(channels, 16, 8, stride=4),
+            nn.ReLU(),
+            nn.Conv2d(16, 32, 4, stride=2),
+            nn.ReLU(),
+            nn.Flatten(),
+        )
+        with torch.no_grad():
+            self.out_dim = int(self.net(torch.zeros(1, *shape)).shape[1])
+
+    def forward(self, x: torch.Tensor) -> torch.Tensor:
+        return self.net(x)
+
+
+def body(obs_shape: ObsShape, hidden: tuple[int, ...], out_dim: int) -> nn.Sequential:
+    """A tanh MLP on normalized observations; for frames, a ConvTrunk in front of it."""
+    shape = _shape(obs_shape)
+    if len(shape) == 1:
+        return mlp([shape[0], *hidden, out_dim])
+    trunk = ConvTrunk(shape)
+    return nn.Sequential(trunk, mlp([trunk.out_dim, *hidden, out_dim]))
+
+
 class GaussianPolicy(nn.Module):
     """Diagonal Gaussian over actions: mean from a tanh MLP, state-independent log std.
 
-    Takes raw observations; normalizes them with its own `norm`.
+    Takes raw observations (vectors, or flat frames given their (C, H, W) shape) and
+    normalizes them with its own `norm`.
     """
 
     def __init__(
-        self, obs_dim: int, act_dim: int, hidden: tuple[int, ...] = (64, 64), log_std: float = -0.5
+        self,
+        obs_shape: ObsShape,
+        act_dim: int,
+        hidden: tuple[int, ...] = (64, 64),
+        log_std: float = -0.5,
     ):
         super().__init__()
-        self.norm = RunningNorm(obs_dim)
-        self.mean_net = mlp([obs_dim, *hidden, act_dim])
+        self.norm = normalizer(obs_shape)
+        self.mean_net = body(obs_shape, hidden, act_dim)
         self.log_std = nn.Parameter(torch.full((act_dim,), float(log_std)))
         # Small last layer: initial actions near 0 instead of saturating the bounds.
         with torch.no_grad():
-            last = self.mean_net[-1]
+            last = [m for m in self.mean_net.modules() if isinstance(m, nn.Linear)][-1]
             last.weight.mul_(0.01)
             last.bias.zero_()
 
@@ -92,10 +160,15 @@ class GaussianPolicy(nn.Module):
 class ValueNet(nn.Module):
     """V(s) from raw observations, normalized with the policy's statistics."""
 
-    def __init__(self, norm: RunningNorm, obs_dim: int, hidden: tuple[int, ...] = (64, 64)):
+    def __init__(
+        self,
+        norm: RunningNorm | PixelScale,
+        obs_shape: ObsShape,
+        hidden: tuple[int, ...] = (64, 64),
+    ):
         super().__init__()
         self.norm = norm  # shared, not copied: one set of statistics per learner
-        self.net = mlp([obs_dim, *hidden, 1])
+        self.net = body(obs_shape, hidden, 1)
 
     def forward(self, obs: torch.Tensor) -> torch.Tensor:
         return self.net(self.norm(obs)).squeeze(-1)
@@ -113,5 +186,8 @@ class DeterministicPolicy:
 
     @torch.no_grad()
     def __call__(self, obs: np.ndarray) -> np.ndarray:
-        mean = self.policy(torch.as_tensor(np.asarray(obs, np.float32)))
+        obs = np.asarray(obs)
+        mean = self.policy(
+            torch.as_tensor(obs if obs.dtype == np.uint8 else obs.astype(np.float32))
+        )
         return np.clip(mean.numpy(), self.low, self.high)

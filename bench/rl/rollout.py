@@ -26,11 +26,11 @@ class Batch:
     """
 
     obs: np.ndarray
-    """(T, E, O) float32."""
+    """(T, E, O) float32 (uint8 for flat frames)."""
     actions: np.ndarray
     """(T, E, A) float32, as the policy gave them (before clipping to the action bounds)."""
     next_obs: np.ndarray
-    """(T, E, O) float32."""
+    """(T, E, O), like obs."""
     rewards: np.ndarray
     """(T, E) float32 env rewards."""
     terminated: np.ndarray
@@ -77,8 +77,10 @@ class VecCollector:
 
     def __init__(self, envs: list[gym.Env], seed: int) -> None:
         self.envs = envs
+        # Frames stay uint8 (a quarter of float32's memory); networks scale them.
+        self.dtype = np.uint8 if envs[0].observation_space.dtype == np.uint8 else np.float32
         self.obs = np.stack([env.reset(seed=seed + i)[0] for i, env in enumerate(envs)]).astype(
-            np.float32
+            self.dtype
         )
         self.t = np.zeros(len(envs), dtype=np.int64)
         self.ret = np.zeros(len(envs), dtype=np.float64)
@@ -104,8 +106,8 @@ class VecCollector:
         """A batch from any batched policy `act`: (E, O) observations -> (E, A) actions."""
         T, E = steps_per_env, len(self.envs)
         obs_dim, act_dim = self.obs.shape[1], self.low.shape[0]
-        obs = np.empty((T, E, obs_dim), np.float32)
-        next_obs = np.empty((T, E, obs_dim), np.float32)
+        obs = np.empty((T, E, obs_dim), self.dtype)
+        next_obs = np.empty((T, E, obs_dim), self.dtype)
         actions = np.empty((T, E, act_dim), np.float32)
         rewards = np.empty((T, E), np.float32)
         terminated = np.zeros((T, E), bool)
@@ -149,6 +151,12 @@ class VecCollector:
             env.close()
 
 
+def observation(o: np.ndarray) -> np.ndarray:
+    """What policies are given: float32 state vectors, or uint8 flat frames as they are."""
+    o = np.asarray(o)
+    return o if o.dtype == np.uint8 else o.astype(np.float32, copy=False)
+
+
 def evaluate(
     policy: Callable[[np.ndarray], np.ndarray],
     envs: list[gym.Env],
@@ -172,7 +180,7 @@ def evaluate(
             env = free.pop()
             o, _ = env.reset(seed=seed + next_episode)
             live.append((next_episode, env))
-            obs.append(np.asarray(o, np.float32))
+            obs.append(observation(o))
             acc.append(0.0)
             next_episode += 1
         acts = policy(np.stack(obs))
@@ -180,7 +188,7 @@ def evaluate(
         for j, ((k, env), a) in enumerate(zip(live, acts, strict=True)):
             o, r, term, trunc, _ = env.step(a)
             acc[j] += float(r)
-            obs[j] = np.asarray(o, np.float32)
+            obs[j] = observation(o)
             if term or trunc:
                 returns[k] = acc[j]
                 free.append(env)

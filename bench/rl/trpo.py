@@ -17,7 +17,7 @@ import gymnasium as gym
 import numpy as np
 import torch
 
-from bench.rl.networks import GaussianPolicy, RunningNorm, ValueNet
+from bench.rl.networks import GaussianPolicy, ObsShape, RunningNorm, ValueNet
 from bench.rl.rollout import Batch, RewardFn, Rewards, VecCollector
 
 
@@ -194,15 +194,18 @@ class TRPO:
     """Policy, value function and their optimizer state; `update` consumes one Batch."""
 
     def __init__(
-        self, obs_dim: int, act_dim: int, cfg: TRPOConfig, seed: int, device: str = "cpu"
+        self, obs_shape: ObsShape, act_dim: int, cfg: TRPOConfig, seed: int, device: str = "cpu"
     ) -> None:
-        """`device`: where the networks live (rollouts always step on the CPU). Not part of the
+        """`obs_shape`: O for state vectors, (C, H, W) for flat frames (`Task.obs_shape`).
+        `device`: where the networks live (rollouts always step on the CPU). Not part of the
         config, so that where a trial ran never changes what it is."""
         torch.manual_seed(seed)
         self.cfg = cfg
         self.device = torch.device(device)
-        self.policy = GaussianPolicy(obs_dim, act_dim, cfg.hidden, cfg.init_log_std).to(self.device)
-        self.value = ValueNet(self.policy.norm, obs_dim, cfg.hidden).to(self.device)
+        self.policy = GaussianPolicy(obs_shape, act_dim, cfg.hidden, cfg.init_log_std).to(
+            self.device
+        )
+        self.value = ValueNet(self.policy.norm, obs_shape, cfg.hidden).to(self.device)
         self.vf_opt = torch.optim.Adam(self.value.net.parameters(), lr=cfg.vf_lr)
         self.gen = torch.Generator().manual_seed(seed + 1)
         self.return_norm = RunningNorm(1)
