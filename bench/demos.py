@@ -25,7 +25,7 @@ import numpy as np
 
 from bench import atomic, envs, paths
 from bench.experts import load_expert
-from bench.pixels import PixelConfig, newest_frames, stack_episode
+from bench.pixels import PixelConfig, camera, newest_frames, stack_episode
 from bench.types import ActionDemos, Demos
 
 POOL_SIZE = 25
@@ -114,7 +114,10 @@ def pool_path(env_id: str, pixels: PixelConfig | None = None) -> Path:
     """Cache path of `env_id`'s pool, keyed by the expert's weights so a retrained expert
     re-records, and by how frames are made if it holds video."""
     digest = hashlib.sha256((paths.expert_dir(env_id) / "policy.pt").read_bytes()).hexdigest()[:12]
-    video = "" if pixels is None else f"-frames{pixels.size}{'g' if pixels.grayscale else 'rgb'}"
+    video = ""
+    if pixels is not None:  # and where the camera stood: a moved camera films another video
+        view = "-".join(f"{x:g}" for x in camera(env_id) or ())
+        video = f"-frames{pixels.size}{'g' if pixels.grayscale else 'rgb'}{view and '-cam' + view}"
     return paths.CACHE_DIR / "demos" / f"{env_id}-{digest}-{FORMAT}{video}.npz"
 
 

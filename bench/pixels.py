@@ -64,6 +64,21 @@ def stack_episode(frames: np.ndarray, cfg: PixelConfig) -> np.ndarray:
     return frames[np.maximum(index, 0)].reshape(len(frames), -1)
 
 
+CAMERAS: dict[str, tuple[float, float]] = {
+    "InvertedPendulumBulletEnv-v0": (1.6, -10.0),
+    "InvertedPendulumSwingupBulletEnv-v0": (1.6, -10.0),
+    "InvertedDoublePendulumBulletEnv-v0": (2.0, -10.0),
+}
+"""(distance, pitch) of the camera where PyBullet's default (3 m, -30 deg) leaves the subject a
+few pixels tall at 64x64: the pendulums' pole, seen from nearly level, fills the frame's height.
+The locomotion envs' default camera follows the robot closely enough."""
+
+
+def camera(env_id: str) -> tuple[float, float] | None:
+    """The (distance, pitch) `Frames` films `env_id` from; None: the env's own camera."""
+    return CAMERAS.get(env_id)
+
+
 class Frames(gym.Wrapper):
     """Observations are the last `cfg.stack` rendered frames, (C, H, W) uint8.
 
@@ -78,6 +93,9 @@ class Frames(gym.Wrapper):
         base = env.unwrapped
         if hasattr(base, "_render_width"):  # PyBullet envs: render at the size we keep
             base._render_width = base._render_height = cfg.size
+        view = camera(env.spec.id if env.spec else "")
+        if view is not None and hasattr(base, "_cam_dist"):
+            base._cam_dist, base._cam_pitch = view
         self.cfg = cfg
         self.observation_space = gym.spaces.Box(0, 255, cfg.shape, np.uint8)
         self._frames: deque[np.ndarray] = deque(maxlen=cfg.stack)

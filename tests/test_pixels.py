@@ -105,3 +105,12 @@ def test_a_tiny_pixel_suite_runs_end_to_end(tmp_path, monkeypatch):
     for learner in ("gaifo", "survival"):
         assert records[learner].env_steps == 256 and len(records[learner].logs["kl"]) == 2
     assert {"disc_loss", "reward_absorbing"} <= set(records["gaifo"].logs)
+
+
+def test_the_pendulum_fills_the_frame():
+    cfg = PixelConfig(stack=1)
+    env = envs.make(PENDULUM, 0, cfg)
+    frame = env.reset(seed=0)[0].reshape(cfg.size, cfg.size)
+    env.close()
+    rows = np.flatnonzero((frame < 150).any(axis=1))  # the dark pole, cart and rail
+    assert rows.max() - rows.min() >= cfg.size // 4, "the pole is a few pixels tall"
