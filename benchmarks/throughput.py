@@ -1,11 +1,14 @@
 """Env steps per second on one core: raw random stepping vs TRPO and GAIfO training.
 
     python benchmarks/throughput.py [--steps 60000] [--envs InvertedPendulumBulletEnv-v0 HopperBulletEnv-v0]
+    python benchmarks/throughput.py --pixels --steps 10000   # from 64x64 frames (`observation: pixels`)
 
 Prints one row per env. `trpo/raw` = TRPO training throughput (updates
 included) over raw stepping: the simulator is the limit, everything else is
 overhead. `gaifo/trpo` = GAIfO (discriminator updates and rewards included)
 over plain TRPO. GAIfO needs the env's expert (for one demonstration).
+With --pixels, raw stepping renders every frame and the networks are convolutional:
+`trpo/raw` then says how much of training is the networks' rather than the renderer's.
 """
 
 from __future__ import annotations
@@ -17,11 +20,12 @@ import numpy as np
 import torch
 
 from bench import envs
-from bench.rl.trpo import TRPOConfig, train
+from bench.pixels import PixelConfig
+from bench.rl.trpo import TRPO, TRPOConfig, train
 
 
-def raw_steps_per_s(env_id: str, steps: int) -> float:
-    env = envs.make(env_id, 0)
+def raw_steps_per_s(env_id: str, steps: int, pixels: PixelConfig | None = None) -> float:
+    env = envs.make(env_id, 0, pixels)
     rng = np.random.default_rng(0)
     low, high = env.action_space.low, env.action_space.high
     actions = rng.uniform(low, high, size=(steps, len(low))).astype(np.float32)
@@ -35,24 +39,24 @@ def raw_steps_per_s(env_id: str, steps: int) -> float:
     return steps / elapsed
 
 
-def trpo_steps_per_s(env_id: str, steps: int, reward_fn=None) -> float:
+def trpo_steps_per_s(env_id: str, steps: int, pixels: PixelConfig | None = None) -> float:
     cfg = TRPOConfig()
+    obs_dim, act_dim, _, _ = envs.spaces(env_id, pixels)
     timings: list[tuple[int, float]] = []
     start = time.perf_counter()
     train(
-        lambda s: envs.make(env_id, s),
+        lambda s: envs.make(env_id, s, pixels),
         steps,
         seed=0,
-        cfg=cfg,
-        reward_fn=reward_fn,
         callback=lambda n, *_: timings.append((n, time.perf_counter() - start)),
+        learner=TRPO(obs_dim if pixels is None else pixels.shape, act_dim, cfg, 0),
     )
     # Skip the first update: env construction and first-call costs are not throughput.
     (n0, t0), (n1, t1) = timings[0], timings[-1]
     return (n1 - n0) / (t1 - t0)
 
 
-def gaifo_steps_per_s(env_id: str, steps: int) -> float:
+def gaifo_steps_per_s(env_id: str, steps: int, pixels: PixelConfig | None = None) -> float:
     """GAIfO from one demonstration, timed like `trpo_steps_per_s` (same TRPO settings)."""
     from algorithms import gaifo
     from algorithms.adversarial import AdversarialConfig
@@ -61,8 +65,8 @@ def gaifo_steps_per_s(env_id: str, steps: int) -> float:
 
     if not paths.has_expert(env_id):
         return float("nan")
-    obs_dim, act_dim, low, high = envs.spaces(env_id)
-    demo = demos.load_demos(demos.ensure_pool(env_id), env_id, k=1, seed=0)
+    obs_dim, act_dim, low, high = envs.spaces(env_id, pixels)
+    demo = demos.load_demos(demos.ensure_pool(env_id, pixels), env_id, 1, 0, pixels)
     timings: list[tuple[int, float]] = []
     start = time.perf_counter()
 
@@ -73,7 +77,9 @@ def gaifo_steps_per_s(env_id: str, steps: int) -> float:
         def log(self, env_steps, **scalars):
             pass
 
-    task = Task(env_id, obs_dim, act_dim, low, high, make_env=lambda s: envs.make(env_id, s))
+    task = Task(
+        env_id, obs_dim, act_dim, low, high, lambda s: envs.make(env_id, s, pixels), pixels=pixels
+    )
     gaifo.train(task, demo, steps, 0, Clock(), AdversarialConfig())
     (n0, t0), (n1, t1) = timings[0], timings[-1]
     return (n1 - n0) / (t1 - t0)
@@ -87,14 +93,16 @@ def main() -> None:
     parser.add_argument(
         "--envs", nargs="+", default=["InvertedPendulumBulletEnv-v0", "HopperBulletEnv-v0"]
     )
+    parser.add_argument("--pixels", action="store_true", help="observe 64x64 grayscale frames")
     args = parser.parse_args()
+    pixels = PixelConfig() if args.pixels else None
     torch.set_num_threads(1)
     header = ("env", "raw steps/s", "TRPO steps/s", "GAIfO steps/s", "trpo/raw", "gaifo/trpo")
     print(f"{header[0]:32s}" + "".join(f"{h:>15s}" for h in header[1:]))
     for env_id in args.envs:
-        raw = raw_steps_per_s(env_id, args.steps)
-        trpo = trpo_steps_per_s(env_id, args.steps)
-        gaifo = gaifo_steps_per_s(env_id, args.steps)
+        raw = raw_steps_per_s(env_id, args.steps, pixels)
+        trpo = trpo_steps_per_s(env_id, args.steps, pixels)
+        gaifo = gaifo_steps_per_s(env_id, args.steps, pixels)
         print(
             f"{env_id:32s}{raw:15,.0f}{trpo:15,.0f}{gaifo:15,.0f}{trpo / raw:15.2f}{gaifo / trpo:15.2f}",
             flush=True,
