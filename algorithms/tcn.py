@@ -1,7 +1,8 @@
 """TCN reward (Sermanet et al. 2017): imitate by tracking a time-contrastive embedding of the demos.
 
 Adaptation: the original embeds video frames with a CNN, trained multi-view across cameras; here an
-MLP embeds state vectors, single-view (positives and negatives come from the same demonstration).
+MLP embeds state vectors (a small CNN embeds frames, in a suite env with `observation: pixels`),
+single-view (positives and negatives come from the same demonstration).
 
 1. Embedding: unit-length MLP features of demonstration states, trained with a triplet loss:
    a positive lies within `pos_window` steps of its anchor, a negative at least `neg_margin` away.
@@ -32,9 +33,9 @@ from torch import nn
 
 from algorithms.common import deterministic, report_each_update
 from bench.registry import Logger, Policy, Task, register
-from bench.rl.networks import RunningNorm, mlp
+from bench.rl.networks import ObsShape, body, normalizer
 from bench.rl.rollout import Batch
-from bench.rl.trpo import TRPOConfig
+from bench.rl.trpo import TRPO, TRPOConfig
 from bench.rl.trpo import train as trpo_train
 from bench.types import Demos
 
@@ -76,12 +77,13 @@ class TCNConfig(TRPOConfig):
 
 
 class Embedding(nn.Module):
-    """Raw (B, O) states -> (B, D) unit-length embeddings; inputs normalized by demo statistics."""
+    """Raw (B, O) states -> (B, D) unit-length embeddings; inputs normalized by demo statistics.
+    From frames (obs_shape (C, H, W)), a convolutional trunk comes first, as in the TCN paper."""
 
-    def __init__(self, obs_dim: int, cfg: TCNConfig) -> None:
+    def __init__(self, obs_shape: ObsShape, cfg: TCNConfig) -> None:
         super().__init__()
-        self.norm = RunningNorm(obs_dim)
-        self.net = mlp([obs_dim, *cfg.embed_hidden, cfg.embed_dim])
+        self.norm = normalizer(obs_shape)
+        self.net = body(obs_shape, cfg.embed_hidden, cfg.embed_dim)
 
     def forward(self, obs: torch.Tensor) -> torch.Tensor:
         return F.normalize(self.net(self.norm(obs)), dim=-1)
@@ -144,7 +146,7 @@ def demo_targets(embed: Embedding, demos: Demos) -> torch.Tensor:
     """(max_i T_i + 1, D): mean embedding of the demonstrations at each step, last state held."""
     horizon = max(len(o) for o in demos.observations)
     held = [np.concatenate([o, np.repeat(o[-1:], horizon - len(o), 0)]) for o in demos.observations]
-    return embed(torch.from_numpy(np.stack(held))).mean(0)
+    return embed(torch.from_numpy(np.concatenate(held))).reshape(len(held), horizon, -1).mean(0)
 
 
 @register(
@@ -152,13 +154,14 @@ def demo_targets(embed: Embedding, demos: Demos) -> torch.Tensor:
     config=TCNConfig,
     inputs="states",
     description="TCN: TRPO on distance to the demos in a time-contrastive embedding",
+    pixels=True,
 )
 def train(
     task: Task, demos: Demos, budget: int, seed: int, logger: Logger, config: TCNConfig
 ) -> Policy:
     cfg = config
     torch.manual_seed(seed)
-    embed = Embedding(task.obs_dim, cfg)
+    embed = Embedding(task.obs_shape, cfg)
     logger.log(0, **train_embedding(embed, demos, cfg, seed))
     targets = demo_targets(embed, demos)
     a, b, c = cfg.reward_alpha, cfg.reward_beta, cfg.reward_gamma
@@ -178,9 +181,8 @@ def train(
         task.make_env,
         budget,
         seed,
-        cfg,
-        reward_fn,
-        report_each_update(task, logger, stats),
-        device=task.device,
+        reward_fn=reward_fn,
+        callback=report_each_update(task, logger, stats),
+        learner=TRPO(task.obs_shape, task.act_dim, cfg, seed, task.device),
     )
     return deterministic(learner, task)

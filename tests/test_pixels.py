@@ -94,15 +94,16 @@ def test_a_tiny_pixel_suite_runs_end_to_end(tmp_path, monkeypatch):
     tiny = "{n_envs: 2, steps_per_env: 64}"
     (tmp_path / "s.yaml").write_text(
         f"name: px\nenvs: {{{PENDULUM}: {{budget: 256, observation: pixels}}}}\ndemos: [1]\n"
-        f"algorithms: [random, expert, gaifo: {tiny}, survival: {tiny}]\n"
+        f"algorithms: [random, expert, gaifo: {tiny}, survival: {tiny},"
+        f" tcn: {{n_envs: 2, steps_per_env: 64, embed_steps: 5}}]\n"
         "seeds: [0]\neval_episodes: 2\n"
     )
     specs = expand(load_suite(tmp_path / "s.yaml"))
     assert run_suite(specs, tmp_path / "res", jobs=2, progress=False).failed == 0
     records = {r.spec.algorithm: r for r in store.scan(tmp_path / "res")}
-    assert set(records) == {"random", "expert", "gaifo", "survival"}
+    assert set(records) == {"random", "expert", "gaifo", "survival", "tcn"}
     assert records["expert"].returns == [1000.0, 1000.0], "the expert still acts on states"
-    for learner in ("gaifo", "survival"):
+    for learner in ("gaifo", "survival", "tcn"):
         assert records[learner].env_steps == 256 and len(records[learner].logs["kl"]) == 2
     assert {"disc_loss", "reward_absorbing"} <= set(records["gaifo"].logs)
 
