@@ -250,6 +250,12 @@ def compare_table(
     return "\n".join(lines) + "\n"
 
 
+def _seen(df: pd.DataFrame, env_id: str) -> str:
+    """ ", from pixels" where the env's learners observed frames (`observation: pixels`)."""
+    seen = df.loc[df["env_id"] == env_id, "observation"]
+    return ", from pixels" if (seen == "pixels").any() else ""
+
+
 def _header(df: pd.DataFrame, results_dir: Path) -> str:
     suites = ", ".join(sorted(map(str, df["suite"].unique())))
     envs = plot.env_order(df["env_id"].unique())
@@ -265,7 +271,7 @@ def _header(df: pd.DataFrame, results_dir: Path) -> str:
     rows = [
         ("suite", suites),
         ("results", f"`{results_dir}`"),
-        ("envs", ", ".join(f"{plot.env_label(e)} (`{e}`)" for e in envs)),
+        ("envs", ", ".join(f"{plot.env_label(e)} (`{e}`{_seen(df, e)})" for e in envs)),
         ("learners", ", ".join(map(label, learners)) or "none"),
         ("references", ", ".join(map(label, references)) or "none"),
         ("demonstrations", ", ".join(map(str, counts)) or "none"),

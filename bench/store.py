@@ -30,7 +30,7 @@ TRIALS = "trials"
 STALE_TMP_SECONDS = 600.0
 """A *.tmp older than this is a dead writer's; younger ones may belong to a live worker."""
 
-SPEC_COLUMNS = ["suite", "env_id", "algorithm", "n_demos", "seed", "budget"]
+SPEC_COLUMNS = ["suite", "env_id", "algorithm", "n_demos", "seed", "budget", "observation"]
 TRIAL_COLUMNS = [
     *SPEC_COLUMNS,
     "inputs",
@@ -162,7 +162,7 @@ def scan(results_dir: str | Path) -> Iterator[TrialResult]:
 def _spec_row(r: TrialResult) -> dict[str, Any]:
     """The spec's columns; `algorithm` is the name shown (a labelled variant's label)."""
     row = {"trial_id": r.trial_id, **{c: getattr(r.spec, c) for c in SPEC_COLUMNS}}
-    return row | {"algorithm": r.spec.shown}
+    return row | {"algorithm": r.spec.shown, "observation": r.spec.observation or "states"}
 
 
 def _trial_row(r: TrialResult) -> dict[str, Any]:
