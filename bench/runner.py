@@ -145,11 +145,11 @@ def run_trial(spec: TrialSpec, inputs: Any, device: str = "cpu") -> TrialResult:
         torch.manual_seed(spec.seed)
         algo = registry.get(spec.algorithm)
         given = algo.inputs
-        eval_envs += [make_env(spec, eval_seed + i) for i in range(min(10, spec.eval_episodes))]
         if spec.dataset and algo.inputs == "expert":
             # The demonstrator of an imported dataset cannot be run: its returns stand in.
             returns, reference = minari_io.expert_reference(minari_io.open_dataset(spec.dataset))
         else:
+            eval_envs += [make_env(spec, eval_seed + i) for i in range(min(10, spec.eval_episodes))]
             task = make_task(spec, tally, device)
             config = algo.make_config(spec.hyperparams)
             policy = algo.train(task, inputs, spec.budget, spec.seed, logger, config)
