@@ -189,8 +189,11 @@ def expert_transitions(
 
 
 def batch_transitions(batch: Batch, task: Task) -> Transitions:
-    """The batch's (T*E) transitions, actions clipped to the bounds as the env applied them."""
+    """The batch's (T*E) transitions as D sees them: actions clipped to the bounds as the env
+    applied them; observations, or the frames filmed beside them where D judges video."""
     actions = np.clip(batch.flat("actions"), task.action_low, task.action_high)
+    if task.video is not None:
+        return Transitions.real(batch.flat("frames"), actions, batch.flat("next_frames"))
     return Transitions.real(batch.flat("obs"), actions, batch.flat("next_obs"))
 
 
@@ -216,23 +219,20 @@ def train_adversarial(
         demos.observations, demos.terminated, expert_actions, cfg.absorbing, cfg.gamma
     )
     expert_x = to_device(expert)
+    # D shares the policy's view and normalizer, or, judging video beside a state policy, has
+    # frames of its own.
+    seen = task.pixels if task.video is None else task.video
+    seen_dim = task.obs_dim if task.video is None else int(np.prod(task.video.shape))
+    norm = learner.policy.norm if task.video is None else PixelScale(task.video.shape)
     disc = Discriminator(
-        learner.policy.norm,
-        features,
-        task.obs_dim,
-        task.act_dim,
-        cfg.disc_hidden,
-        cfg.absorbing,
-        task.pixels,
+        norm, features, seen_dim, task.act_dim, cfg.disc_hidden, cfg.absorbing, seen
     ).to(device)
     opt = torch.optim.Adam(disc.parameters(), lr=cfg.disc_lr)
     gen = torch.Generator().manual_seed(seed + 2)
     reward = REWARDS[cfg.reward]
     stats: dict[str, float] = {}
     average = PolicyAverage(cfg.policy_average)
-    absorbing_probe = to_device(
-        absorbing.tails(np.zeros((1, task.obs_dim)), task.act_dim, cfg.gamma)
-    )
+    absorbing_probe = to_device(absorbing.tails(np.zeros((1, seen_dim)), task.act_dim, cfg.gamma))
 
     def reward_fn(batch: Batch) -> np.ndarray | Rewards:
         real = batch_transitions(batch, task)
@@ -240,9 +240,8 @@ def train_adversarial(
         n_real, n_term = len(real), int(terminated.sum())
         parts = [real]
         if cfg.absorbing and n_term:
-            parts.append(
-                absorbing.tails(batch.flat("next_obs")[terminated], task.act_dim, cfg.gamma)
-            )
+            finals = batch.flat("next_obs" if task.video is None else "next_frames")[terminated]
+            parts.append(absorbing.tails(finals, task.act_dim, cfg.gamma))
         policy_x = to_device(Transitions.concat(parts))
         stats.update(discriminator_step(disc, opt, policy_x, expert_x, cfg, gen))
         with torch.no_grad():

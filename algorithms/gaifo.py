@@ -20,6 +20,7 @@ def state_transition(s: torch.Tensor, a: torch.Tensor, s_next: torch.Tensor) -> 
     inputs="states",
     description="GAIfO: discriminator on (s, s')",
     pixels=True,
+    video_reward=True,
 )
 def train(
     task: Task, demos: Demos, budget: int, seed: int, logger: Logger, config: AdversarialConfig

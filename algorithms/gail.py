@@ -20,6 +20,7 @@ def state_action(s: torch.Tensor, a: torch.Tensor, s_next: torch.Tensor) -> torc
     inputs="actions",
     description="GAIL: discriminator on (s, a)",
     pixels=True,
+    video_reward=True,
 )
 def train(
     task: Task,

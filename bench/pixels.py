@@ -128,3 +128,22 @@ def _resize(rgb: np.ndarray, size: int) -> np.ndarray:
     rows = np.linspace(0, rgb.shape[0] - 1, size).round().astype(int)
     cols = np.linspace(0, rgb.shape[1] - 1, size).round().astype(int)
     return rgb[rows][:, cols]
+
+
+class VideoBeside(gym.Wrapper):
+    """A `Frames` env turned inside out: observations are the simulator state again, and the flat
+    frames ride along in `info["frames"]`. For a learner that acts on states and is rewarded on
+    video (`observation: video-reward`): not the paper's pixel setting, a cheaper relative of it."""
+
+    def __init__(self, env: gym.Env) -> None:
+        super().__init__(env)
+        state = env.unwrapped.observation_space
+        self.observation_space = gym.spaces.Box(state.low, state.high, state.shape, np.float32)
+
+    def reset(self, **kwargs):
+        frames, info = self.env.reset(**kwargs)
+        return info["state"], {**info, "frames": frames}
+
+    def step(self, action):
+        frames, reward, terminated, truncated, info = self.env.step(action)
+        return info["state"], reward, terminated, truncated, {**info, "frames": frames}

@@ -21,7 +21,10 @@ An algorithm is one function plus a config dataclass::
 "actions" -> `ActionDemos` (GAIL only), "expert" -> the expert `Policy`,
 "none" -> None. `pixels=True` says the algorithm can also learn from video: in
 a suite env with `observation: pixels`, observations (its envs' and the demos')
-are flat uint8 stacks of frames and `task.pixels` says how to reshape them. Every algorithm, built-in or not, registers through the
+are flat uint8 stacks of frames and `task.pixels` says how to reshape them.
+`video_reward=True`: in an env with `observation: video-reward` it acts on states
+but its demonstrations are video (flat frames, `task.video` their shape), and its
+envs film themselves too (`Batch.frames`), so its reward can judge video. Every algorithm, built-in or not, registers through the
 entry-point group `ifo_bench.algorithms`, whose entry points name a module
 (or callable) to import, e.g. in a package's pyproject.toml::
 
@@ -69,6 +72,10 @@ class Task:
     """None: observations are the env's state vectors. Else they are (obs_dim,) uint8 flat
     stacks of rendered frames, `obs.reshape(-1, *pixels.shape)` their (C, H, W) images."""
 
+    video: PixelConfig | None = None
+    """Not None where observations are states but demonstrations are video: batches then carry
+    the frames of each step (`Batch.frames`, `next_frames`) for a reward to judge."""
+
     @property
     def obs_shape(self) -> tuple[int, ...]:
         """One observation's shape as networks should see it: (O,) or (C, H, W)."""
@@ -101,6 +108,8 @@ class Algorithm:
     description: str = ""
     pixels: bool = False
     """It can learn from rendered frames (a suite env with `observation: pixels`)."""
+    video_reward: bool = False
+    """It can act on states and imitate video (a suite env with `observation: video-reward`)."""
 
     @property
     def uses_actions(self) -> bool:
@@ -128,7 +137,13 @@ _loaded = False
 
 
 def register(
-    name: str, *, config: type, inputs: Inputs, description: str = "", pixels: bool = False
+    name: str,
+    *,
+    config: type,
+    inputs: Inputs,
+    description: str = "",
+    pixels: bool = False,
+    video_reward: bool = False,
 ) -> Callable[[TrainFn], TrainFn]:
     """Decorator: register `train` under `name`."""
     if inputs not in ("none", "states", "actions", "expert"):
@@ -138,7 +153,7 @@ def register(
 
     def wrap(train: TrainFn) -> TrainFn:
         doc = description or (train.__doc__ or "").strip().split("\n")[0]
-        _ALGORITHMS[name] = Algorithm(name, train, config, inputs, doc, pixels)
+        _ALGORITHMS[name] = Algorithm(name, train, config, inputs, doc, pixels, video_reward)
         return train
 
     return wrap

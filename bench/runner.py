@@ -25,7 +25,7 @@ import torch
 from tqdm import tqdm
 
 from bench import demos, envs, experts, minari_io, registry, store
-from bench.pixels import PixelConfig
+from bench.pixels import PixelConfig, VideoBeside
 from bench.rl.rollout import evaluate
 from bench.types import CurvePoint, TrialResult, TrialSpec
 
@@ -90,6 +90,14 @@ def pixels(spec: TrialSpec) -> PixelConfig | None:
     return None
 
 
+def video(spec: TrialSpec) -> PixelConfig | None:
+    """How the trial's demonstrations are filmed: in a pixel env as the learner sees, in a
+    video-reward env for the algorithms that imitate video while acting on states."""
+    if spec.observation == "video-reward" and registry.get(spec.algorithm).video_reward:
+        return PixelConfig()
+    return pixels(spec)
+
+
 def demo_pool(env_id: str, dataset: str | None, video: PixelConfig | None = None) -> Path:
     """The demonstration pool file of `env_id`: converted from the Minari `dataset` if given,
     else recorded from the shipped expert (with its video, given `video`); made on first use,
@@ -106,14 +114,18 @@ def trial_inputs(spec: TrialSpec) -> Any:
         return None
     if kind == "expert":
         return None if spec.dataset else experts.load_expert(spec.env_id)
-    video = pixels(spec)
-    pool = demo_pool(spec.env_id, spec.dataset, video)
+    filmed = video(spec)
+    pool = demo_pool(spec.env_id, spec.dataset, filmed)
     load = demos.load_demos if kind == "states" else demos.load_action_demos
-    return load(pool, spec.env_id, spec.n_demos, spec.seed, video)
+    return load(pool, spec.env_id, spec.n_demos, spec.seed, filmed)
 
 
-def make_env(spec: TrialSpec, seed: int) -> gym.Env:
-    """An env of the trial, observed as its algorithm observes it."""
+def make_env(spec: TrialSpec, seed: int, training: bool = True) -> gym.Env:
+    """An env of the trial, observed as its algorithm observes it. Where it imitates video
+    while acting on states, training envs film themselves beside (`VideoBeside`); evaluation
+    envs need not."""
+    if training and pixels(spec) is None and video(spec) is not None:
+        return VideoBeside(envs.make(spec.env_id, seed, video(spec)))
     return envs.make(spec.env_id, seed, pixels(spec))
 
 
@@ -129,6 +141,7 @@ def make_task(spec: TrialSpec, tally: list[int], device: str = "cpu") -> registr
         make_env=lambda s: StepCounter(make_env(spec, s), tally, spec.budget),
         device=device,
         pixels=pixels(spec),
+        video=video(spec) if pixels(spec) is None else None,
     )
 
 
@@ -295,12 +308,12 @@ def run_suite(
         if r.status == "ok":
             costs.observe(r.spec, r.wall_time)
     sources = {
-        (s.env_id, s.dataset or "", pixels(s))
+        (s.env_id, s.dataset or "", video(s))
         for s in todo
         if registry.get(s.algorithm).inputs in ("states", "actions")
     }
-    for env_id, dataset, video in sources:  # demo pools made once, before forking
-        demo_pool(env_id, dataset or None, video)
+    for env_id, dataset, filmed in sources:  # demo pools made once, before forking
+        demo_pool(env_id, dataset or None, filmed)
     done = failed = 0
     bar = tqdm(
         total=len(todo), desc="trials", unit="trial", disable=not progress, dynamic_ncols=True

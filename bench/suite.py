@@ -6,7 +6,8 @@ A suite names everything one experiment runs::
     envs:                  # env id -> settings; budget = env steps per training trial
       InvertedPendulumBulletEnv-v0: {budget: 100000}
       # optional per env: dataset (a Minari dataset's demos instead of the shipped expert's),
-      # observation: pixels (learners see stacked 64x64 grayscale frames, demos are video)
+      # observation: pixels (learners see stacked 64x64 grayscale frames, demos are video),
+      # or video-reward (learners act on states, demos are video: not the paper's setting)
     demos: [1, 5, 10, 25]  # demonstration counts: distinct ints in 1..DEMO_POOL_SIZE
     algorithms:            # a name, or {name: {hyperparameter: value}}
       - random
@@ -43,7 +44,7 @@ from bench.types import TrialSpec
 _SUITE_KEYS = ("name", "envs", "demos", "algorithms", "seeds", "eval_episodes", "runner")
 _REQUIRED_KEYS = ("envs", "demos", "algorithms")
 _ENV_KEYS = ("budget", "dataset", "observation")
-_OBSERVATIONS = ("states", "pixels")
+_OBSERVATIONS = ("states", "pixels", "video-reward")
 _RUNNER_KEYS = ("jobs", "backend")
 _BACKENDS = ("loky", "dask")
 _NAME_PATTERN = re.compile(r"[A-Za-z0-9][A-Za-z0-9._-]*")  # it becomes a folder name
@@ -256,8 +257,8 @@ def _suite(raw: Any, default_name: str) -> Suite:
             check_env_id(env.env_id)
         except EnvError as e:
             raise _Invalid(f"envs.{env.env_id}", _one_line(str(e))) from None
-        if env.observation == "pixels":
-            _check_pixel_learners(env, algorithms)
+        if env.observation is not None:
+            _check_video_learners(env, algorithms)
         if env.dataset is not None:  # its demonstrator is the 1.0: no shipped expert needed
             _check_dataset(env, max(demos), algorithms)
         elif not paths.has_expert(env.env_id):
@@ -269,19 +270,24 @@ def _suite(raw: Any, default_name: str) -> Suite:
     return Suite(name, envs, demos, algorithms, seeds, eval_episodes, runner)
 
 
-def _check_pixel_learners(env: EnvSettings, algorithms: tuple) -> None:
-    """Every algorithm of a pixel env learns from frames, except the expert, which acts on the
-    simulator state in either setting (its return is the task's, whatever the learners see)."""
-    blind = [
-        a.shown
-        for a in algorithms
-        if not registry.get(a.name).pixels and registry.get(a.name).inputs != "expert"
-    ]
+def _check_video_learners(env: EnvSettings, algorithms: tuple) -> None:
+    """pixels: every algorithm learns from frames, except the expert, which acts on the
+    simulator state in either setting (its return is the task's, whatever the learners see).
+    video-reward: every algorithm given demonstrations can imitate video; the others act on
+    states as always."""
+    if env.observation == "pixels":
+        can = lambda a: a.pixels or a.inputs == "expert"  # noqa: E731
+        able = sorted(n for n, a in registry.all_algorithms().items() if a.pixels)
+        what = "learn from pixels"
+    else:
+        can = lambda a: a.video_reward or a.inputs not in ("states", "actions")  # noqa: E731
+        able = sorted(n for n, a in registry.all_algorithms().items() if a.video_reward)
+        what = "imitate video"
+    blind = [a.shown for a in algorithms if not can(registry.get(a.name))]
     if blind:
-        takes = sorted(n for n, a in registry.all_algorithms().items() if a.pixels)
         raise _Invalid(
             f"envs.{env.env_id}.observation",
-            f"{', '.join(blind)} cannot learn from pixels (those that can: {', '.join(takes)})",
+            f"{', '.join(blind)} cannot {what} (those that can: {', '.join(able) or 'none'})",
         )
 
 
@@ -340,9 +346,10 @@ def _envs(raw: Any) -> tuple[EnvSettings, ...]:
                 f"{key}.observation",
                 f"expected one of {', '.join(_OBSERVATIONS)}, got {_show(observation)}",
             )
-        if observation == "pixels" and dataset is not None:
+        if observation != "states" and dataset is not None:
             raise _Invalid(
-                f"{key}.observation", "pixels need video demonstrations; a dataset holds states"
+                f"{key}.observation",
+                f"{observation} needs video demonstrations; a dataset holds states",
             )
         envs.append(
             EnvSettings(env_id, budget, dataset, None if observation == "states" else observation)

@@ -1,9 +1,11 @@
 import numpy as np
 import pytest
 
-from bench import demos, envs, store
+from bench import demos, envs, runner, store
 from bench.experts import load_expert
-from bench.pixels import PixelConfig
+from bench.pixels import PixelConfig, VideoBeside
+from bench.rl.networks import GaussianPolicy
+from bench.rl.rollout import VecCollector
 from bench.runner import run_suite
 from bench.suite import expand, load_suite
 from bench.types import Demos
@@ -115,3 +117,43 @@ def test_the_pendulum_fills_the_frame():
     env.close()
     rows = np.flatnonzero((frame < 150).any(axis=1))  # the dark pole, cart and rail
     assert rows.max() - rows.min() >= cfg.size // 4, "the pole is a few pixels tall"
+
+
+@pytest.mark.usefixtures("demo_cache")
+def test_a_video_reward_suite_acts_on_states_and_judges_frames(tmp_path, monkeypatch):
+    monkeypatch.setattr(demos, "POOL_SIZE", 2)
+    tiny = "{n_envs: 2, steps_per_env: 64}"
+    (tmp_path / "s.yaml").write_text(
+        f"name: vr\nenvs: {{{PENDULUM}: {{budget: 256, observation: video-reward}}}}\n"
+        f"demos: [1]\nalgorithms: [random, expert, gaifo: {tiny}, survival: {tiny}]\n"
+        "seeds: [0]\neval_episodes: 2\n"
+    )
+    specs = expand(load_suite(tmp_path / "s.yaml"))
+    gaifo = next(s for s in specs if s.algorithm == "gaifo")
+    assert runner.pixels(gaifo) is None and runner.video(gaifo) == PixelConfig()
+    env = runner.make_env(gaifo, 0)
+    state, info = env.reset(seed=0)
+    assert state.shape == (5,) and info["frames"].shape == (np.prod(PixelConfig().shape),)
+    env.close()
+    shown = runner.trial_inputs(gaifo)
+    assert shown.observations[0].dtype == np.uint8, "the demonstrations are video"
+    assert runner.run_suite(specs, tmp_path / "res", jobs=1, progress=False).failed == 0
+    logs = {r.spec.algorithm: r.logs for r in store.scan(tmp_path / "res")}
+    assert len(logs["gaifo"]["disc_loss"]) == 2 and len(logs["survival"]["kl"]) == 2
+
+
+def test_filmed_batches_carry_each_steps_frames():
+    cfg = PixelConfig(size=16, stack=2)
+    collector = VecCollector([VideoBeside(envs.make(PENDULUM, s, cfg)) for s in range(2)], 0)
+    batch = collector.collect(GaussianPolicy(5, 1, log_std=1.0), 60)  # wild: episodes end
+    collector.close()
+    assert batch.obs.shape == (60, 2, 5) and batch.frames.shape == (60, 2, 2 * 16 * 16)
+    ends = batch.terminated | batch.truncated
+    assert ends[:-1].any(), "the test needs an episode boundary"
+    for t in range(59):
+        for i in range(2):
+            if not ends[t, i]:  # within an episode s' of one step is s of the next
+                np.testing.assert_array_equal(batch.next_frames[t, i], batch.frames[t + 1, i])
+            else:  # a new episode starts from its own first frame, repeated
+                first = batch.frames[t + 1, i].reshape(cfg.shape)
+                assert (first == first[:1]).all()

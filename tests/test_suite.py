@@ -259,18 +259,23 @@ BAD = [
     ),
     (
         lambda r: _set(r, ("envs", PENDULUM, "observation"), "video"),
-        f"envs.{PENDULUM}.observation: expected one of states, pixels, got 'video'",
+        f"envs.{PENDULUM}.observation: expected one of states, pixels, video-reward, got 'video'",
     ),
     (
         lambda r: _set(
             r, ("envs", PENDULUM), {"budget": 5, "observation": "pixels", "dataset": "d"}
         ),
-        f"envs.{PENDULUM}.observation: pixels need video demonstrations; a dataset holds states",
+        f"envs.{PENDULUM}.observation: pixels needs video demonstrations; a dataset holds states",
     ),
     (
         lambda r: _set(r, ("envs", PENDULUM, "observation"), "pixels"),
         f"envs.{PENDULUM}.observation: ifo, with-actions cannot learn from pixels"
         " (those that can: random)",
+    ),
+    (
+        lambda r: _set(r, ("envs", PENDULUM, "observation"), "video-reward"),
+        f"envs.{PENDULUM}.observation: ifo, with-actions cannot imitate video"
+        " (those that can: none)",
     ),
 ]
 

@@ -42,6 +42,11 @@ class Batch:
     episode_returns: list[float]
     """Env returns of the episodes that finished during this batch."""
     episode_lengths: list[int]
+    frames: np.ndarray | None = None
+    """(T, E, F) uint8 flat frames of obs, where the envs film themselves beside their state
+    observations (`bench.pixels.VideoBeside`: a reward judged on video); else None."""
+    next_frames: np.ndarray | None = None
+    """(T, E, F) frames of next_obs, like frames."""
 
     @property
     def n_steps(self) -> int:
@@ -79,9 +84,10 @@ class VecCollector:
         self.envs = envs
         # Frames stay uint8 (a quarter of float32's memory); networks scale them.
         self.dtype = np.uint8 if envs[0].observation_space.dtype == np.uint8 else np.float32
-        self.obs = np.stack([env.reset(seed=seed + i)[0] for i, env in enumerate(envs)]).astype(
-            self.dtype
-        )
+        first = [env.reset(seed=seed + i) for i, env in enumerate(envs)]
+        self.obs = np.stack([o for o, _ in first]).astype(self.dtype)
+        filmed = "frames" in first[0][1]
+        self.frames = np.stack([info["frames"] for _, info in first]) if filmed else None
         self.t = np.zeros(len(envs), dtype=np.int64)
         self.ret = np.zeros(len(envs), dtype=np.float64)
         self.low = envs[0].action_space.low.astype(np.float32)
@@ -115,15 +121,23 @@ class VecCollector:
         timesteps = np.empty((T, E), np.int64)
         ep_returns: list[float] = []
         ep_lengths: list[int] = []
+        filmed = self.frames is not None
+        if filmed:
+            frames = np.empty((T, *self.frames.shape), np.uint8)
+            next_frames = np.empty_like(frames)
         for t in range(T):
             obs[t] = self.obs
             timesteps[t] = self.t
+            if filmed:
+                frames[t] = self.frames
             act_t = act(self.obs)
             actions[t] = act_t
             clipped = np.clip(act_t, self.low, self.high)
             for i, env in enumerate(self.envs):
-                o, r, term, trunc, _ = env.step(clipped[i])
+                o, r, term, trunc, info = env.step(clipped[i])
                 next_obs[t, i] = o
+                if filmed:
+                    next_frames[t, i] = info["frames"]
                 rewards[t, i] = r
                 self.ret[i] += r
                 self.t[i] += 1
@@ -131,9 +145,11 @@ class VecCollector:
                     terminated[t, i], truncated[t, i] = term, trunc and not term
                     ep_returns.append(float(self.ret[i]))
                     ep_lengths.append(int(self.t[i]))
-                    o, _ = env.reset()
+                    o, info = env.reset()
                     self.ret[i], self.t[i] = 0.0, 0
                 self.obs[i] = o
+                if filmed:
+                    self.frames[i] = info["frames"]
         return Batch(
             obs,
             actions,
@@ -144,6 +160,8 @@ class VecCollector:
             timesteps,
             ep_returns,
             ep_lengths,
+            frames if filmed else None,
+            next_frames if filmed else None,
         )
 
     def close(self) -> None:
