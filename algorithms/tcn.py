@@ -155,13 +155,16 @@ def demo_targets(embed: Embedding, demos: Demos) -> torch.Tensor:
     inputs="states",
     description="TCN: TRPO on distance to the demos in a time-contrastive embedding",
     pixels=True,
+    video_reward=True,
 )
 def train(
     task: Task, demos: Demos, budget: int, seed: int, logger: Logger, config: TCNConfig
 ) -> Policy:
     cfg = config
     torch.manual_seed(seed)
-    embed = Embedding(task.obs_shape, cfg)
+    # Where the learner acts on states but imitates video, the embedding and the reward see frames.
+    judged = "next_obs" if task.video is None else "next_frames"
+    embed = Embedding(task.obs_shape if task.video is None else task.video.shape, cfg)
     logger.log(0, **train_embedding(embed, demos, cfg, seed))
     targets = demo_targets(embed, demos)
     a, b, c = cfg.reward_alpha, cfg.reward_beta, cfg.reward_gamma
@@ -170,7 +173,7 @@ def train(
 
     @torch.no_grad()
     def reward_fn(batch: Batch) -> np.ndarray:
-        e = embed(torch.from_numpy(batch.flat("next_obs")))
+        e = embed(torch.from_numpy(batch.flat(judged)))
         t = torch.from_numpy(batch.flat("timesteps") + 1).clamp_max(len(targets) - 1)
         dist2 = (e - targets[t]).square().sum(1)
         stats["embed_dist2"] = dist2.mean().item()

@@ -125,7 +125,8 @@ def test_a_video_reward_suite_acts_on_states_and_judges_frames(tmp_path, monkeyp
     tiny = "{n_envs: 2, steps_per_env: 64}"
     (tmp_path / "s.yaml").write_text(
         f"name: vr\nenvs: {{{PENDULUM}: {{budget: 256, observation: video-reward}}}}\n"
-        f"demos: [1]\nalgorithms: [random, expert, gaifo: {tiny}, survival: {tiny}]\n"
+        f"demos: [1]\nalgorithms: [random, expert, gaifo: {tiny}, survival: {tiny},"
+        f" tcn: {{n_envs: 2, steps_per_env: 64, embed_steps: 5}}]\n"
         "seeds: [0]\neval_episodes: 2\n"
     )
     specs = expand(load_suite(tmp_path / "s.yaml"))
@@ -140,6 +141,7 @@ def test_a_video_reward_suite_acts_on_states_and_judges_frames(tmp_path, monkeyp
     assert runner.run_suite(specs, tmp_path / "res", jobs=1, progress=False).failed == 0
     logs = {r.spec.algorithm: r.logs for r in store.scan(tmp_path / "res")}
     assert len(logs["gaifo"]["disc_loss"]) == 2 and len(logs["survival"]["kl"]) == 2
+    assert len(logs["tcn"]["embed_dist2"]) == 2
 
 
 def test_filmed_batches_carry_each_steps_frames():
