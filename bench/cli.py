@@ -130,13 +130,18 @@ def _estimate(specs: list, results: Path, jobs: int) -> int:
     records = [r for d in store.find_result_dirs(results.parent) for r in store.scan(d)]
     rows = estimate(todo, records)
     print(f"{len(todo)} of {len(specs)} trials pending -> {results}/")
-    print(f"{'env':36s} {'algorithm':14s} {'trials':>6s} {'per trial':>10s} {'core-h':>7s}  basis")
+    width = max([36, *(len(r.env_id) for r in rows)])
+    print(
+        f"{'env':{width}s} {'algorithm':14s} {'trials':>6s} {'per trial':>10s} {'core-h':>7s}  basis"
+    )
     known = 0.0
     for r in sorted(rows, key=lambda r: (r.env_id, r.algorithm)):
         each = "?" if r.seconds is None else f"{r.seconds / 60:.1f} min"
         hours = "?" if r.seconds is None else f"{r.seconds * r.trials / 3600:.2f}"
         known += 0.0 if r.seconds is None else r.seconds * r.trials
-        print(f"{r.env_id:36s} {r.algorithm:14s} {r.trials:6d} {each:>10s} {hours:>7s}  {r.basis}")
+        print(
+            f"{r.env_id:{width}s} {r.algorithm:14s} {r.trials:6d} {each:>10s} {hours:>7s}  {r.basis}"
+        )
     cores = jobs if jobs > 0 else os.cpu_count() or 1
     unknown = sum(r.trials for r in rows if r.seconds is None)
     print(

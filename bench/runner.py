@@ -207,6 +207,13 @@ def pending(specs: list[TrialSpec], have: dict[str, str], retry_failed: bool) ->
     return keep
 
 
+def cost_kind(spec: TrialSpec) -> tuple[str, str]:
+    """What a trial's cost per env step depends on: its env as observed, and its algorithm.
+    Frames cost ~100x states per step, so they are another kind: "ENV (pixels)"."""
+    env = spec.env_id if spec.observation is None else f"{spec.env_id} ({spec.observation})"
+    return env, spec.algorithm
+
+
 @dataclass
 class CostModel:
     """Wall seconds per env step of each (env, algorithm), learned from finished trials.
@@ -222,7 +229,7 @@ class CostModel:
     lock: threading.Lock = field(default_factory=threading.Lock)  # joblib dispatches from a thread
 
     def observe(self, spec: TrialSpec, wall_time: float) -> None:
-        key = (spec.env_id, spec.algorithm)
+        key = cost_kind(spec)
         with self.lock:
             total, n = self.totals.get(key, (0.0, 0))
             self.totals[key] = (total + wall_time / max(spec.budget, 1), n + 1)
@@ -230,7 +237,7 @@ class CostModel:
     def priority(self, spec: TrialSpec) -> tuple[int, float]:
         """Higher runs sooner: never-seen kinds first (by budget), then by expected seconds."""
         with self.lock:
-            seen = self.totals.get((spec.env_id, spec.algorithm))
+            seen = self.totals.get(cost_kind(spec))
         if seen is None:
             return (1, float(spec.budget))
         total, n = seen
@@ -240,6 +247,7 @@ class CostModel:
 @dataclass(frozen=True)
 class Estimate:
     env_id: str
+    """The env id, with its observation in parentheses where it is not states."""
     algorithm: str
     trials: int
     seconds: float | None
@@ -256,12 +264,10 @@ def estimate(specs: list[TrialSpec], records: Iterable[TrialResult]) -> list[Est
     per_step: dict[tuple[str, str], list[float]] = {}
     for r in records:
         if r.status == "ok" and r.spec.budget > 0:
-            per_step.setdefault((r.spec.env_id, r.spec.algorithm), []).append(
-                r.wall_time / r.spec.budget
-            )
+            per_step.setdefault(cost_kind(r.spec), []).append(r.wall_time / r.spec.budget)
     groups: dict[tuple[str, str], list[TrialSpec]] = {}
     for spec in specs:
-        groups.setdefault((spec.env_id, spec.algorithm), []).append(spec)
+        groups.setdefault(cost_kind(spec), []).append(spec)
     out = []
     for (env_id, algorithm), group in groups.items():
         budget = sum(s.budget for s in group) / len(group)
