@@ -90,17 +90,22 @@ def test_pixel_demos_are_the_experts_video_as_the_imitator_sees_it(tmp_path):
         demos.load_demos(plain, PENDULUM, pixels=cfg)
 
 
-@pytest.mark.usefixtures("demo_cache")
-def test_a_tiny_pixel_suite_runs_end_to_end(tmp_path, monkeypatch):
+def tiny_suite(tmp_path, monkeypatch, observation: str) -> list:
+    """The trials of a suite of two TRPO updates per learner on the pendulum, observed so."""
     monkeypatch.setattr(demos, "POOL_SIZE", 2)  # filming 25 episodes at 64x64 takes ~15 s
     tiny = "{n_envs: 2, steps_per_env: 64}"
     (tmp_path / "s.yaml").write_text(
-        f"name: px\nenvs: {{{PENDULUM}: {{budget: 256, observation: pixels}}}}\ndemos: [1]\n"
-        f"algorithms: [random, expert, gaifo: {tiny}, survival: {tiny},"
+        f"name: tiny\nenvs: {{{PENDULUM}: {{budget: 256, observation: {observation}}}}}\n"
+        f"demos: [1]\nalgorithms: [random, expert, gaifo: {tiny}, survival: {tiny},"
         f" tcn: {{n_envs: 2, steps_per_env: 64, embed_steps: 5}}]\n"
         "seeds: [0]\neval_episodes: 2\n"
     )
-    specs = expand(load_suite(tmp_path / "s.yaml"))
+    return expand(load_suite(tmp_path / "s.yaml"))
+
+
+@pytest.mark.usefixtures("demo_cache")
+def test_a_tiny_pixel_suite_runs_end_to_end(tmp_path, monkeypatch):
+    specs = tiny_suite(tmp_path, monkeypatch, "pixels")
     assert run_suite(specs, tmp_path / "res", jobs=2, progress=False).failed == 0
     records = {r.spec.algorithm: r for r in store.scan(tmp_path / "res")}
     assert set(records) == {"random", "expert", "gaifo", "survival", "tcn"}
@@ -121,15 +126,7 @@ def test_the_pendulum_fills_the_frame():
 
 @pytest.mark.usefixtures("demo_cache")
 def test_a_video_reward_suite_acts_on_states_and_judges_frames(tmp_path, monkeypatch):
-    monkeypatch.setattr(demos, "POOL_SIZE", 2)
-    tiny = "{n_envs: 2, steps_per_env: 64}"
-    (tmp_path / "s.yaml").write_text(
-        f"name: vr\nenvs: {{{PENDULUM}: {{budget: 256, observation: video-reward}}}}\n"
-        f"demos: [1]\nalgorithms: [random, expert, gaifo: {tiny}, survival: {tiny},"
-        f" tcn: {{n_envs: 2, steps_per_env: 64, embed_steps: 5}}]\n"
-        "seeds: [0]\neval_episodes: 2\n"
-    )
-    specs = expand(load_suite(tmp_path / "s.yaml"))
+    specs = tiny_suite(tmp_path, monkeypatch, "video-reward")
     gaifo = next(s for s in specs if s.algorithm == "gaifo")
     assert runner.pixels(gaifo) is None and runner.video(gaifo) == PixelConfig()
     env = runner.make_env(gaifo, 0)
