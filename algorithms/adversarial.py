@@ -219,11 +219,14 @@ def train_adversarial(
         demos.observations, demos.terminated, expert_actions, cfg.absorbing, cfg.gamma
     )
     expert_x = to_device(expert)
-    # D shares the policy's view and normalizer, or, judging video beside a state policy, has
-    # frames of its own.
-    seen = task.pixels if task.video is None else task.video
-    seen_dim = task.obs_dim if task.video is None else int(np.prod(task.video.shape))
-    norm = learner.policy.norm if task.video is None else PixelScale(task.video.shape)
+    if task.video is None:  # D sees what the policy sees, normalized alike
+        seen, seen_dim, norm = task.pixels, task.obs_dim, learner.policy.norm
+    else:  # D judges video filmed beside a state policy: frames of its own
+        seen, seen_dim, norm = (
+            task.video,
+            int(np.prod(task.video.shape)),
+            PixelScale(task.video.shape),
+        )
     disc = Discriminator(
         norm, features, seen_dim, task.act_dim, cfg.disc_hidden, cfg.absorbing, seen
     ).to(device)
@@ -240,8 +243,7 @@ def train_adversarial(
         n_real, n_term = len(real), int(terminated.sum())
         parts = [real]
         if cfg.absorbing and n_term:
-            finals = batch.flat("next_obs" if task.video is None else "next_frames")[terminated]
-            parts.append(absorbing.tails(finals, task.act_dim, cfg.gamma))
+            parts.append(absorbing.tails(real.next_obs[terminated], task.act_dim, cfg.gamma))
         policy_x = to_device(Transitions.concat(parts))
         stats.update(discriminator_step(disc, opt, policy_x, expert_x, cfg, gen))
         with torch.no_grad():

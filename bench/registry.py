@@ -19,14 +19,15 @@ An algorithm is one function plus a config dataclass::
 
 `inputs` says what `demos` is: "states" -> `Demos` (no actions, by type),
 "actions" -> `ActionDemos` (GAIL only), "expert" -> the expert `Policy`,
-"none" -> None. `pixels=True` says the algorithm can also learn from video: in
+"none" -> None. `pixels=True` says the algorithm can also learn from frames: in
 a suite env with `observation: pixels`, observations (its envs' and the demos')
 are flat uint8 stacks of frames and `task.pixels` says how to reshape them.
 `video_reward=True`: in an env with `observation: video-reward` it acts on states
 but its demonstrations are video (flat frames, `task.video` their shape), and its
-envs film themselves too (`Batch.frames`), so its reward can judge video. Every algorithm, built-in or not, registers through the
-entry-point group `ifo_bench.algorithms`, whose entry points name a module
-(or callable) to import, e.g. in a package's pyproject.toml::
+envs film themselves too (`Batch.frames`), so its reward can judge video.
+Every algorithm, built-in or not, registers through the entry-point group
+`ifo_bench.algorithms`, whose entry points name a module (or callable) to
+import, e.g. in a package's pyproject.toml::
 
     [project.entry-points."ifo_bench.algorithms"]
     my-ifo = "my_package.my_ifo"

@@ -90,12 +90,18 @@ def pixels(spec: TrialSpec) -> PixelConfig | None:
     return None
 
 
-def video(spec: TrialSpec) -> PixelConfig | None:
-    """How the trial's demonstrations are filmed: in a pixel env as the learner sees, in a
-    video-reward env for the algorithms that imitate video while acting on states."""
+def beside(spec: TrialSpec) -> PixelConfig | None:
+    """Frames filmed beside the state, in a video-reward env, for an algorithm that imitates
+    video while acting on states; else None."""
     if spec.observation == "video-reward" and registry.get(spec.algorithm).video_reward:
         return PixelConfig()
-    return pixels(spec)
+    return None
+
+
+def video(spec: TrialSpec) -> PixelConfig | None:
+    """How the trial's demonstrations are filmed: as the learner sees (pixels) or as its
+    reward judges (video-reward); None: they are states."""
+    return pixels(spec) or beside(spec)
 
 
 def demo_pool(env_id: str, dataset: str | None, video: PixelConfig | None = None) -> Path:
@@ -124,14 +130,16 @@ def make_env(spec: TrialSpec, seed: int, training: bool = True) -> gym.Env:
     """An env of the trial, observed as its algorithm observes it. Where it imitates video
     while acting on states, training envs film themselves beside (`VideoBeside`); evaluation
     envs need not."""
-    if training and pixels(spec) is None and video(spec) is not None:
-        return VideoBeside(envs.make(spec.env_id, seed, video(spec)))
+    filmed = beside(spec) if training else None
+    if filmed is not None:
+        return VideoBeside(envs.make(spec.env_id, seed, filmed))
     return envs.make(spec.env_id, seed, pixels(spec))
 
 
 def make_task(spec: TrialSpec, tally: list[int], device: str = "cpu") -> registry.Task:
     """The trial's Task: its envs count every step into `tally[0]` and stop past the budget."""
-    obs_dim, act_dim, low, high = envs.spaces(spec.env_id, pixels(spec))
+    seen = pixels(spec)
+    obs_dim, act_dim, low, high = envs.spaces(spec.env_id, seen)
     return registry.Task(
         spec.env_id,
         obs_dim,
@@ -140,8 +148,8 @@ def make_task(spec: TrialSpec, tally: list[int], device: str = "cpu") -> registr
         high,
         make_env=lambda s: StepCounter(make_env(spec, s), tally, spec.budget),
         device=device,
-        pixels=pixels(spec),
-        video=video(spec) if pixels(spec) is None else None,
+        pixels=seen,
+        video=beside(spec),
     )
 
 

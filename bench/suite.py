@@ -72,7 +72,8 @@ class EnvSettings:
     """A Minari dataset (folder or local id) to take demonstrations from instead of the
     shipped expert's pool."""
     observation: str | None = None
-    """None: learners observe states; "pixels": stacked rendered frames (`bench.pixels`)."""
+    """None: learners observe states; "pixels": stacked rendered frames (`bench.pixels`);
+    "video-reward": learners act on states and imitate the expert's video."""
 
 
 @dataclass(frozen=True)

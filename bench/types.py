@@ -101,7 +101,8 @@ class TrialSpec:
     expert's pool)."""
     observation: str | None = None
     """What the learner observes: None for the env's state vector, "pixels" for stacked
-    rendered frames (`bench.pixels`); demonstrations are then the expert's video."""
+    rendered frames (`bench.pixels`), "video-reward" for states while its reward judges
+    frames; demonstrations are then the expert's video."""
 
     def canonical(self) -> str:
         spec = asdict(self)

@@ -57,7 +57,7 @@ from typing import Any
 
 import numpy as np
 
-from bench.rl.rollout import observation
+from bench.rl.networks import observation
 
 FLAG = 10.0
 """The absorbing flag's value in a learner's input, against O(1) normalized features. A flag of

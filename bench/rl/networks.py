@@ -80,6 +80,13 @@ def normalizer(obs_shape: ObsShape) -> RunningNorm | PixelScale:
     return RunningNorm(shape[0]) if len(shape) == 1 else PixelScale(shape)
 
 
+def observation(o: np.ndarray) -> np.ndarray:
+    """What networks and policies are given: float32 state vectors, or uint8 flat frames as they
+    are (a quarter of float32's memory; PixelScale scales them)."""
+    o = np.asarray(o)
+    return o if o.dtype == np.uint8 else o.astype(np.float32, copy=False)
+
+
 def mlp(sizes: list[int], activation: type[nn.Module] = nn.Tanh) -> nn.Sequential:
     layers: list[nn.Module] = []
     for i in range(len(sizes) - 1):
@@ -186,8 +193,5 @@ class DeterministicPolicy:
 
     @torch.no_grad()
     def __call__(self, obs: np.ndarray) -> np.ndarray:
-        obs = np.asarray(obs)
-        mean = self.policy(
-            torch.as_tensor(obs if obs.dtype == np.uint8 else obs.astype(np.float32))
-        )
+        mean = self.policy(torch.as_tensor(observation(obs)))
         return np.clip(mean.numpy(), self.low, self.high)

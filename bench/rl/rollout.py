@@ -14,7 +14,7 @@ import gymnasium as gym
 import numpy as np
 import torch
 
-from bench.rl.networks import GaussianPolicy
+from bench.rl.networks import GaussianPolicy, observation
 
 
 @dataclass(frozen=True)
@@ -82,10 +82,8 @@ class VecCollector:
 
     def __init__(self, envs: list[gym.Env], seed: int) -> None:
         self.envs = envs
-        # Frames stay uint8 (a quarter of float32's memory); networks scale them.
-        self.dtype = np.uint8 if envs[0].observation_space.dtype == np.uint8 else np.float32
         first = [env.reset(seed=seed + i) for i, env in enumerate(envs)]
-        self.obs = np.stack([o for o, _ in first]).astype(self.dtype)
+        self.obs = observation(np.stack([o for o, _ in first]))
         filmed = "frames" in first[0][1]
         self.frames = np.stack([info["frames"] for _, info in first]) if filmed else None
         self.t = np.zeros(len(envs), dtype=np.int64)
@@ -112,8 +110,8 @@ class VecCollector:
         """A batch from any batched policy `act`: (E, O) observations -> (E, A) actions."""
         T, E = steps_per_env, len(self.envs)
         obs_dim, act_dim = self.obs.shape[1], self.low.shape[0]
-        obs = np.empty((T, E, obs_dim), self.dtype)
-        next_obs = np.empty((T, E, obs_dim), self.dtype)
+        obs = np.empty((T, E, obs_dim), self.obs.dtype)
+        next_obs = np.empty_like(obs)
         actions = np.empty((T, E, act_dim), np.float32)
         rewards = np.empty((T, E), np.float32)
         terminated = np.zeros((T, E), bool)
@@ -167,12 +165,6 @@ class VecCollector:
     def close(self) -> None:
         for env in self.envs:
             env.close()
-
-
-def observation(o: np.ndarray) -> np.ndarray:
-    """What policies are given: float32 state vectors, or uint8 flat frames as they are."""
-    o = np.asarray(o)
-    return o if o.dtype == np.uint8 else o.astype(np.float32, copy=False)
 
 
 def evaluate(
