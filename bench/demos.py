@@ -206,6 +206,11 @@ def load_action_demos(
     return ActionDemos(demos, tuple(acts[i] for i in idx))
 
 
+def pool_states(path: Path, env_id: str) -> np.ndarray:
+    """(N, O) every observation of every episode of a pool, back to back."""
+    return _open(path, env_id)["obs"]
+
+
 def pool_returns(path: Path, env_id: str) -> np.ndarray:
     """Per-episode expert returns of a pool (for reports)."""
     data = _open(path, env_id)

@@ -8,7 +8,8 @@ band. Random and expert are the references (0 and 1), not competitors; learners
 that take no demonstrations (e.g. survival) compete at every count as controls.
 
 Written beside `report.md`: figure2, profile_<n>demos and curves_<n>demos as
-.png and .pdf, and the numbers of the tables as aggregates.csv and improvement.csv.
+.png and .pdf, and the numbers of the tables as aggregates.csv, improvement.csv and
+state_match.csv (distance of the learners' states from the expert's, `bench.state_match`).
 Nothing here trains or evaluates: it reads records and writes files.
 """
 
@@ -29,6 +30,18 @@ from bench.normalize import EXPERT, RANDOM, REFERENCES, demo_free, normalize, re
 REPORT = "report.md"
 AGGREGATES_CSV = "aggregates.csv"
 IMPROVEMENT_CSV = "improvement.csv"
+STATE_MATCH_CSV = "state_match.csv"
+STATE_MATCH_COLUMNS = [
+    "n_demos",
+    "algorithm",
+    "runs",
+    "iqm",
+    "lo",
+    "hi",
+    "p_closer",
+    "p_lo",
+    "p_hi",
+]
 TARGET = "gaifo"
 """The algorithm whose probability of improvement over the others is reported."""
 TAUS = 81
@@ -107,10 +120,14 @@ def write_report(results_dir: Path, out_dir: Path | None = None, reps: int = 200
     except ValueError as e:  # several curves per seed and step: records of more than one run
         curves = str(e)
     per_count = [_demo_section(df, curves, n, out_dir, reps) for n in demo_counts(df)]
+    matched = [_state_match_section(df, n, reps, starred) for n in demo_counts(df)]
     aggregates = _concat([aggregate for _, aggregate, _ in per_count], AGGREGATE_COLUMNS)
     improvements = _concat([improvement for _, _, improvement in per_count], IMPROVEMENT_COLUMNS)
     aggregates.to_csv(out_dir / AGGREGATES_CSV, index=False)
     improvements.to_csv(out_dir / IMPROVEMENT_CSV, index=False)
+    _concat([rows for _, rows in matched], STATE_MATCH_COLUMNS).to_csv(
+        out_dir / STATE_MATCH_CSV, index=False
+    )
 
     sections = [
         _header(df, results_dir),
@@ -118,6 +135,7 @@ def write_report(results_dir: Path, out_dir: Path | None = None, reps: int = 200
         _at_a_glance(aggregates, improvements, starred),
         per_env,
         *(text for text, _, _ in per_count),
+        *(text for text, _ in matched),
         _references(df),
         _costs(df),
     ]
@@ -498,6 +516,69 @@ def _demo_section(
         aggregate.assign(n_demos=n) if len(aggregate) else aggregate,
         improvement.assign(n_demos=n) if len(improvement) else improvement,
     )
+
+
+def _state_match_section(
+    df: pd.DataFrame, n: int, reps: int, starred: Collection[str]
+) -> tuple[str, pd.DataFrame]:
+    """Markdown on how far each learner's states lie from the expert's at `n` demos, and its
+    rows; nothing where the records hold no distance (pixels, or records from before)."""
+    measured = df.dropna(subset=["state_distance"])
+    names = [a for a in competitors(measured, n)] + [
+        a for a in (EXPERT, RANDOM) if a in set(measured["algorithm"])
+    ]
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # seeds and envs left out are said in the return sections
+        try:
+            distances = stats.score_dict(measured, n, algorithms=names, column="state_distance")
+        except ValueError:
+            return "", pd.DataFrame()
+    aggregate = stats.aggregate_scores(distances, reps=reps)
+    iqm = aggregate[aggregate["metric"] == "iqm"].set_index("algorithm")
+    closer = pd.DataFrame()
+    if TARGET in distances and len(distances) > 1:  # closer is better: compare negated distances
+        negated = {a: -d for a, d in distances.items()}
+        closer = stats.probability_of_improvement(negated, TARGET, reps=reps).set_index("other")
+    target = plot.algorithm_label(TARGET, starred)
+    header = ["algorithm", "runs", "IQM distance [95% CI]", f"P({target} closer) [95% CI]"]
+    lines = [_row(header), "|---|---|---|---|"]
+    rows = []
+    for a in _in_order(pd.Series(list(distances))):
+        p = closer.loc[a] if a in closer.index else None
+        runs = "{} × {}".format(*distances[a].shape)
+        lines.append(
+            _row(
+                [
+                    plot.algorithm_label(a, starred),
+                    runs,
+                    _interval(*iqm.loc[a, ["estimate", "lo", "hi"]]),
+                    "" if p is None else _interval(p["estimate"], p["lo"], p["hi"]),
+                ]
+            )
+        )
+        rows.append(
+            {
+                "n_demos": n,
+                "algorithm": a,
+                "runs": runs,
+                **dict(zip(["iqm", "lo", "hi"], iqm.loc[a, ["estimate", "lo", "hi"]], strict=True)),
+                **(
+                    {"p_closer": p["estimate"], "p_lo": p["lo"], "p_hi": p["hi"]}
+                    if p is not None
+                    else {}
+                ),
+            }
+        )
+    text = (
+        f"## Distance to the expert's states, {_demos_title(n).lower()}\n\n"
+        "How far the states a policy visits in its evaluation episodes lie from the expert's "
+        "(bench.state_match: per-dimension 1-Wasserstein distance in units of the expert's "
+        "spread, averaged over dimensions; 0 = distributed alike, lower is closer). It sees "
+        "imitation where the return cannot: a control that merely survives can score like the "
+        f"expert while standing elsewhere. P({target} closer) is the probability that a "
+        f"{target} run is closer to the expert than a run of the other.\n\n" + "\n".join(lines)
+    )
+    return text, pd.DataFrame(rows, columns=STATE_MATCH_COLUMNS)
 
 
 def _curves_section(

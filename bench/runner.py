@@ -24,7 +24,7 @@ import numpy as np
 import torch
 from tqdm import tqdm
 
-from bench import demos, envs, experts, minari_io, registry, store
+from bench import demos, envs, experts, minari_io, registry, state_match, store
 from bench.pixels import PixelConfig, VideoBeside
 from bench.rl.rollout import evaluate
 from bench.types import CurvePoint, TrialResult, TrialSpec
@@ -113,6 +113,17 @@ def demo_pool(env_id: str, dataset: str | None, video: PixelConfig | None = None
     return demos.ensure_pool(env_id, video)
 
 
+def expert_distance(spec: TrialSpec, visited: list[np.ndarray]) -> float | None:
+    """`state_match.state_distance` of the states a trial's evaluation visited from its expert
+    pool's states; None where the env has no expert (or dataset) to compare with."""
+    try:
+        pool = demo_pool(spec.env_id, spec.dataset)
+    except FileNotFoundError:  # ExpertError: a random policy can run where no expert exists
+        return None
+    expert_states = demos.pool_states(pool, spec.env_id)
+    return state_match.state_distance(np.concatenate(visited), expert_states)
+
+
 def trial_inputs(spec: TrialSpec) -> Any:
     """What the trial's algorithm is handed as `demos`, according to its `inputs`."""
     kind = registry.get(spec.algorithm).inputs
@@ -161,7 +172,7 @@ def run_trial(spec: TrialSpec, inputs: Any, device: str = "cpu") -> TrialResult:
     eval_seed = EVAL_SEED + 1000 * spec.seed
     eval_envs: list[gym.Env] = []
     logger = TrialLogger(eval_envs, eval_seed, every=max(1, spec.budget // CURVE_POINTS))
-    given = reference = None
+    given = reference = distance = None
     try:
         torch.manual_seed(spec.seed)
         algo = registry.get(spec.algorithm)
@@ -174,7 +185,9 @@ def run_trial(spec: TrialSpec, inputs: Any, device: str = "cpu") -> TrialResult:
             task = make_task(spec, tally, device)
             config = algo.make_config(spec.hyperparams)
             policy = algo.train(task, inputs, spec.budget, spec.seed, logger, config)
-            returns = evaluate(policy, eval_envs, spec.eval_episodes, eval_seed)
+            visited: list[np.ndarray] | None = None if pixels(spec) else []
+            returns = evaluate(policy, eval_envs, spec.eval_episodes, eval_seed, visited)
+            distance = expert_distance(spec, visited) if visited else None
         if not np.all(np.isfinite(returns)):
             raise FloatingPointError("evaluation returned a non-finite return")
         status, tb = "ok", None
@@ -195,6 +208,7 @@ def run_trial(spec: TrialSpec, inputs: Any, device: str = "cpu") -> TrialResult:
         logs=logger.logs,
         inputs=given,
         reference=reference,
+        state_distance=distance,
     )
 
 

@@ -40,6 +40,7 @@ TRIAL_COLUMNS = [
     "return_std",
     "env_steps",
     "wall_time",
+    "state_distance",
 ]
 CURVE_COLUMNS = ["trial_id", *SPEC_COLUMNS, "inputs", "env_steps", "return"]
 LOG_COLUMNS = ["trial_id", *SPEC_COLUMNS, "key", "index", "value"]
@@ -77,6 +78,7 @@ def read(path: str | Path) -> TrialResult:
         logs={k: [_float(v) for v in vs] for k, vs in raw.get("logs", {}).items()},
         inputs=raw.get("inputs"),
         reference=raw.get("reference"),
+        state_distance=raw.get("state_distance"),
     )
 
 
@@ -176,6 +178,7 @@ def _trial_row(r: TrialResult) -> dict[str, Any]:
         "return_std": float(returns.std()) if ok else math.nan,
         "env_steps": r.env_steps,
         "wall_time": r.wall_time,
+        "state_distance": _float(r.state_distance) if ok else math.nan,
     }
 
 

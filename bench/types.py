@@ -154,6 +154,10 @@ class TrialResult:
     reference: str | None = None
     """Where an expert record's returns come from when no shipped expert was run (a dataset's
     demonstrator: its ref_max_score or its episodes' returns)."""
+    state_distance: float | None = None
+    """How far the evaluation episodes' states lie from the expert's pool
+    (`bench.state_match.state_distance`: 0 = distributed alike); None from pixels, for a
+    dataset's demonstrator, and in records written before it was measured."""
 
     @property
     def trial_id(self) -> str:

@@ -44,6 +44,7 @@ def trial(env_id: str, algorithm: str, n_demos: int, seed: int, **changes) -> Tr
         wall_time=12.5,
         versions={"ifo-bench": "test"},
         inputs={"random": "none", "expert": "expert", "gail": "actions"}.get(algorithm, "states"),
+        state_distance=3.0 * (1.0 - level),  # the more skilled, the closer to the expert's states
     )
     return TrialResult(**(fields | changes))
 
@@ -121,6 +122,27 @@ def test_report_numbers(written):
     assert (improvement["estimate"] > 0.5).all()
     # the raw references, mean ± std over the 4 seeds
     assert "| Hopper | -5.0 ± 28.9 (4 seeds) | 2500.0 ± 28.9 (4 seeds) |" in written.read_text()
+
+
+def test_distance_to_the_expert_states(written):
+    text = written.read_text()
+    assert "## Distance to the expert's states, 5 demonstrations" in text
+    assert "| algorithm | runs | IQM distance [95% CI] | P(GAIfO closer) [95% CI] |" in text
+    matched = pd.read_csv(written.parent / "state_match.csv").set_index(["n_demos", "algorithm"])
+    # gaifo with 5 demos: distance 3 (1 - (0.7 + 0.05 seed)); the middle half is seeds 1, 2
+    assert matched.loc[(5, "gaifo"), "iqm"] == pytest.approx(3.0 * (1 - 0.7 - 0.05 * 1.5))
+    # every gaifo run is closer than every survival run, and every expert run than any gaifo run
+    assert matched.loc[(5, "survival"), "p_closer"] == 1.0
+    assert matched.loc[(5, "expert"), "p_closer"] == 0.0
+
+
+def test_no_distance_section_without_distances(tmp_path):
+    results = tmp_path / "old"
+    for algorithm, n in (("random", 0), ("expert", 0), ("gaifo", 1), ("survival", 0)):
+        for seed in range(3):
+            store.write(results, trial(PENDULUM, algorithm, n, seed, state_distance=None))
+    text = report.write_report(results, reps=REPS).path.read_text()
+    assert "Distance to the expert" not in text and "nan" not in text.lower()
 
 
 def test_cost_per_trial(written):

@@ -172,12 +172,15 @@ def evaluate(
     envs: list[gym.Env],
     episodes: int,
     seed: int,
+    visited: list[np.ndarray] | None = None,
 ) -> list[float]:
     """Returns of `episodes` full episodes of a deterministic numpy policy.
 
     Runs up to len(envs) episodes side by side so the policy sees one batch per
     step. Episode k resets with seed `seed + k`, and returns come back in
     episode order, so the result does not depend on how many envs are used.
+    Given `visited`, every observation the policy acts on is appended to it, one (n, O) batch
+    per step.
     """
     returns = np.full(episodes, np.nan)
     free = list(envs)
@@ -193,7 +196,10 @@ def evaluate(
             obs.append(observation(o))
             acc.append(0.0)
             next_episode += 1
-        acts = policy(np.stack(obs))
+        batch = np.stack(obs)
+        if visited is not None:
+            visited.append(batch)
+        acts = policy(batch)
         keep = []
         for j, ((k, env), a) in enumerate(zip(live, acts, strict=True)):
             o, r, term, trunc, _ = env.step(a)
