@@ -82,11 +82,16 @@ def versions() -> dict[str, str]:
     return {pkg: version(pkg) for pkg in ("ifo-bench", "torch", "gymnasium", "pybullet")}
 
 
+def frames(spec: TrialSpec) -> PixelConfig:
+    """How a pixel or video-reward trial's frames are made."""
+    return PixelConfig() if spec.frame_size is None else PixelConfig(size=spec.frame_size)
+
+
 def pixels(spec: TrialSpec) -> PixelConfig | None:
     """How the trial's algorithm sees its env: frames in a pixel suite env (the expert, which
     cannot learn from them, acts on states there too), else None (states)."""
     if spec.observation == "pixels" and registry.get(spec.algorithm).pixels:
-        return PixelConfig()
+        return frames(spec)
     return None
 
 
@@ -94,7 +99,7 @@ def beside(spec: TrialSpec) -> PixelConfig | None:
     """Frames filmed beside the state, in a video-reward env, for an algorithm that imitates
     video while acting on states; else None."""
     if spec.observation == "video-reward" and registry.get(spec.algorithm).video_reward:
-        return PixelConfig()
+        return frames(spec)
     return None
 
 
@@ -232,7 +237,10 @@ def pending(specs: list[TrialSpec], have: dict[str, str], retry_failed: bool) ->
 def cost_kind(spec: TrialSpec) -> tuple[str, str]:
     """What a trial's cost per env step depends on: its env as observed, and its algorithm.
     Frames cost ~100x states per step, so they are another kind: "ENV (pixels)"."""
-    env = spec.env_id if spec.observation is None else f"{spec.env_id} ({spec.observation})"
+    seen = spec.observation
+    if seen is not None and spec.frame_size is not None:
+        seen = f"{seen} {spec.frame_size}px"
+    env = spec.env_id if seen is None else f"{spec.env_id} ({seen})"
     return env, spec.algorithm
 
 

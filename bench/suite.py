@@ -7,7 +7,8 @@ A suite names everything one experiment runs::
       InvertedPendulumBulletEnv-v0: {budget: 100000}
       # optional per env: dataset (a Minari dataset's demos instead of the shipped expert's),
       # observation: pixels (learners see stacked 64x64 grayscale frames, demos are video),
-      # or video-reward (learners act on states, demos are video: not the paper's setting)
+      # or video-reward (learners act on states, demos are video: not the paper's setting);
+      # with either, frame_size: 32 (frame side in pixels, default 64; ~3.5x cheaper per step)
     demos: [1, 5, 10, 25]  # demonstration counts: distinct ints in 1..DEMO_POOL_SIZE
     algorithms:            # a name, or {name: {hyperparameter: value}}
       - random
@@ -43,7 +44,7 @@ from bench.types import TrialSpec
 
 _SUITE_KEYS = ("name", "envs", "demos", "algorithms", "seeds", "eval_episodes", "runner")
 _REQUIRED_KEYS = ("envs", "demos", "algorithms")
-_ENV_KEYS = ("budget", "dataset", "observation")
+_ENV_KEYS = ("budget", "dataset", "observation", "frame_size")
 _OBSERVATIONS = ("states", "pixels", "video-reward")
 _RUNNER_KEYS = ("jobs", "backend")
 _BACKENDS = ("loky", "dask")
@@ -74,6 +75,8 @@ class EnvSettings:
     observation: str | None = None
     """None: learners observe states; "pixels": stacked rendered frames (`bench.pixels`);
     "video-reward": learners act on states and imitate the expert's video."""
+    frame_size: int | None = None
+    """Frame side in pixels with pixels or video-reward (None: 64). 32 costs ~3.5x less per step."""
 
 
 @dataclass(frozen=True)
@@ -170,6 +173,7 @@ def _spec(
         label=algo.label,
         dataset=env.dataset,
         observation=env.observation,
+        frame_size=env.frame_size,
     )
 
 
@@ -352,9 +356,13 @@ def _envs(raw: Any) -> tuple[EnvSettings, ...]:
                 f"{key}.observation",
                 f"{observation} needs video demonstrations; a dataset holds states",
             )
-        envs.append(
-            EnvSettings(env_id, budget, dataset, None if observation == "states" else observation)
-        )
+        frame_size = settings.get("frame_size")
+        if frame_size is not None:
+            if observation == "states":
+                raise _Invalid(f"{key}.frame_size", "only with observation: pixels or video-reward")
+            frame_size = _int(frame_size, f"{key}.frame_size", 24, 256)  # the conv trunk needs 20+
+        seen = None if observation == "states" else observation
+        envs.append(EnvSettings(env_id, budget, dataset, seen, frame_size))
     return tuple(envs)
 
 

@@ -103,10 +103,12 @@ class TrialSpec:
     """What the learner observes: None for the env's state vector, "pixels" for stacked
     rendered frames (`bench.pixels`), "video-reward" for states while its reward judges
     frames; demonstrations are then the expert's video."""
+    frame_size: int | None = None
+    """Side in pixels of the frames of a pixel or video-reward trial (None: PixelConfig's 64)."""
 
     def canonical(self) -> str:
         spec = asdict(self)
-        for optional in ("label", "dataset", "observation"):
+        for optional in ("label", "dataset", "observation", "frame_size"):
             if spec[optional] is None:
                 del spec[optional]  # so specs from before these fields existed keep their ids
         return json.dumps(spec, sort_keys=True, separators=(",", ":"))

@@ -93,9 +93,12 @@ def main() -> None:
     parser.add_argument(
         "--envs", nargs="+", default=["InvertedPendulumBulletEnv-v0", "HopperBulletEnv-v0"]
     )
-    parser.add_argument("--pixels", action="store_true", help="observe 64x64 grayscale frames")
+    parser.add_argument("--pixels", action="store_true", help="observe stacked grayscale frames")
+    parser.add_argument(
+        "--frame-size", type=int, default=PixelConfig.size, help="frame side with --pixels"
+    )
     args = parser.parse_args()
-    pixels = PixelConfig() if args.pixels else None
+    pixels = PixelConfig(size=args.frame_size) if args.pixels else None
     torch.set_num_threads(1)
     header = ("env", "raw steps/s", "TRPO steps/s", "GAIfO steps/s", "trpo/raw", "gaifo/trpo")
     print(f"{header[0]:32s}" + "".join(f"{h:>15s}" for h in header[1:]))

@@ -91,7 +91,8 @@ def test_pixel_demos_are_the_experts_video_as_the_imitator_sees_it(tmp_path):
 
 
 def tiny_suite(tmp_path, monkeypatch, observation: str) -> list:
-    """The trials of a suite of two TRPO updates per learner on the pendulum, observed so."""
+    """The trials of a suite of two TRPO updates per learner on the pendulum, observed so
+    (`observation` may carry more env settings: "pixels, frame_size: 32")."""
     monkeypatch.setattr(demos, "POOL_SIZE", 2)  # filming 25 episodes at 64x64 takes ~15 s
     tiny = "{n_envs: 2, steps_per_env: 64}"
     (tmp_path / "s.yaml").write_text(
@@ -105,7 +106,8 @@ def tiny_suite(tmp_path, monkeypatch, observation: str) -> list:
 
 @pytest.mark.usefixtures("demo_cache")
 def test_a_tiny_pixel_suite_runs_end_to_end(tmp_path, monkeypatch):
-    specs = tiny_suite(tmp_path, monkeypatch, "pixels")
+    specs = tiny_suite(tmp_path, monkeypatch, "pixels, frame_size: 32")
+    assert {runner.pixels(s).shape for s in specs if s.algorithm != "expert"} == {(4, 32, 32)}
     assert run_suite(specs, tmp_path / "res", jobs=2, progress=False).failed == 0
     records = {r.spec.algorithm: r for r in store.scan(tmp_path / "res")}
     assert set(records) == {"random", "expert", "gaifo", "survival", "tcn"}

@@ -277,6 +277,16 @@ BAD = [
         f"envs.{PENDULUM}.observation: ifo, with-actions cannot imitate video"
         " (those that can: none)",
     ),
+    (
+        lambda r: _set(r, ("envs", PENDULUM, "frame_size"), 32),
+        f"envs.{PENDULUM}.frame_size: only with observation: pixels or video-reward",
+    ),
+    (
+        lambda r: _set(
+            r, ("envs", PENDULUM), {"budget": 5, "observation": "pixels", "frame_size": 16}
+        ),
+        f"envs.{PENDULUM}.frame_size: expected an integer >= 24 <= 256, got 16",
+    ),
 ]
 
 
@@ -414,3 +424,7 @@ def test_a_pixel_env_marks_its_trials_and_keeps_state_trial_ids(tmp_path):
     assert seen == {(PENDULUM, "pixels"), (HOPPER, None)}
     state_ids = {s.trial_id for s in states}
     assert all((s.trial_id in state_ids) == (s.env_id == HOPPER) for s in pixels)
+    _set(raw, ("envs", PENDULUM, "frame_size"), 32)  # another kind of trial: other ids
+    small = expand(load_suite(write(tmp_path, raw, "q.yaml")))
+    assert {s.frame_size for s in small if s.env_id == PENDULUM} == {32}
+    assert not {s.trial_id for s in small if s.env_id == PENDULUM} & {s.trial_id for s in pixels}
