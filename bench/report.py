@@ -524,8 +524,9 @@ def _state_match_section(
     """Markdown on how far each learner's states lie from the expert's at `n` demos, and its
     rows; nothing where the records hold no distance (pixels, or records from before)."""
     measured = df.dropna(subset=["state_distance"])
-    names = [a for a in competitors(measured, n)] + [
-        a for a in (EXPERT, RANDOM) if a in set(measured["algorithm"])
+    names = [
+        *competitors(measured, n),
+        *(a for a in (EXPERT, RANDOM) if a in set(measured["algorithm"])),
     ]
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # seeds and envs left out are said in the return sections
@@ -544,31 +545,25 @@ def _state_match_section(
     lines = [_row(header), "|---|---|---|---|"]
     rows = []
     for a in _in_order(pd.Series(list(distances))):
-        p = closer.loc[a] if a in closer.index else None
-        runs = "{} × {}".format(*distances[a].shape)
+        d = iqm.loc[a]
+        row = {"n_demos": n, "algorithm": a, "runs": "{} × {}".format(*distances[a].shape)}
+        row |= {"iqm": d["estimate"], "lo": d["lo"], "hi": d["hi"]}
+        p_closer = ""
+        if a in closer.index:
+            p = closer.loc[a]
+            row |= {"p_closer": p["estimate"], "p_lo": p["lo"], "p_hi": p["hi"]}
+            p_closer = _interval(p["estimate"], p["lo"], p["hi"])
         lines.append(
             _row(
                 [
                     plot.algorithm_label(a, starred),
-                    runs,
-                    _interval(*iqm.loc[a, ["estimate", "lo", "hi"]]),
-                    "" if p is None else _interval(p["estimate"], p["lo"], p["hi"]),
+                    row["runs"],
+                    _interval(row["iqm"], row["lo"], row["hi"]),
+                    p_closer,
                 ]
             )
         )
-        rows.append(
-            {
-                "n_demos": n,
-                "algorithm": a,
-                "runs": runs,
-                **dict(zip(["iqm", "lo", "hi"], iqm.loc[a, ["estimate", "lo", "hi"]], strict=True)),
-                **(
-                    {"p_closer": p["estimate"], "p_lo": p["lo"], "p_hi": p["hi"]}
-                    if p is not None
-                    else {}
-                ),
-            }
-        )
+        rows.append(row)
     text = (
         f"## Distance to the expert's states, {_demos_title(n).lower()}\n\n"
         "How far the states a policy visits in its evaluation episodes lie from the expert's "

@@ -16,10 +16,8 @@ def test_identical_samples_are_at_distance_zero():
 
 def test_a_shift_counts_in_expert_standard_deviations():
     expert = np.random.default_rng(1).normal(size=(20_000, 2)) * [2.0, 0.5]
-    shifted = expert + [
-        4.0,
-        0.0,
-    ]  # two expert stds along the first dimension, none along the second
+    # two expert stds along the first dimension, none along the second
+    shifted = expert + [4.0, 0.0]
     per_dim = state_match.wasserstein_per_dim(shifted, expert)
     in_stds = 4.0 / expert[:, 0].std()  # ~2: the sample's std, not the generator's
     assert per_dim == pytest.approx([in_stds, 0.0], abs=1e-9)
