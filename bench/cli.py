@@ -20,12 +20,11 @@ if TYPE_CHECKING:
 
 def _experts_train(args: argparse.Namespace) -> int:
     from bench import envs
-    from bench.experts import train_expert
-    from bench.rl.trpo import TRPOConfig
+    from bench.experts import ExpertConfig, train_expert
 
     envs.check_env_id(args.env_id)
     batch = {"n_envs": args.n_envs, "steps_per_env": args.steps_per_env}
-    cfg = TRPOConfig(**{**batch, **args.hyperparams})  # --hyperparams has the last word
+    cfg = ExpertConfig(**{**batch, **args.hyperparams})  # --hyperparams has the last word
     # Rebuilt from the parsed arguments, without --out: where it was saved is not how it was trained.
     command = ["bench", "experts", "train", args.env_id, "--steps", str(args.steps)]
     command += ["--seed", str(args.seed), "--n-envs", str(args.n_envs)]
@@ -43,8 +42,8 @@ def _experts_train(args: argparse.Namespace) -> int:
 
 
 def _trpo_overrides(text: str) -> dict:
-    """argparse type: a JSON object of TRPOConfig fields, or an argparse error naming the problem."""
-    from bench.rl.trpo import TRPOConfig
+    """argparse type: a JSON object of ExpertConfig fields, or an argparse error naming the problem."""
+    from bench.experts import ExpertConfig
 
     try:
         value = json.loads(text)
@@ -52,11 +51,11 @@ def _trpo_overrides(text: str) -> dict:
         raise argparse.ArgumentTypeError(f"not JSON: {err}") from None
     if not isinstance(value, dict):
         raise argparse.ArgumentTypeError("must be a JSON object, e.g. '{\"hidden\": [128, 128]}'")
-    known = {f.name for f in dataclasses.fields(TRPOConfig)}
+    known = {f.name for f in dataclasses.fields(ExpertConfig)}
     unknown = sorted(set(value) - known)
     if unknown:
         raise argparse.ArgumentTypeError(
-            f"TRPOConfig has no field {', '.join(map(repr, unknown))} (known: {', '.join(sorted(known))})"
+            f"ExpertConfig has no field {', '.join(map(repr, unknown))} (known: {', '.join(sorted(known))})"
         )
     return value
 
@@ -364,7 +363,7 @@ def build_parser() -> argparse.ArgumentParser:
         "--hyperparams",
         type=_trpo_overrides,
         default={},
-        help='TRPOConfig overrides as JSON, e.g. \'{"hidden": [128, 128], "init_log_std": -1.0}\'',
+        help='ExpertConfig (TRPOConfig) overrides as JSON, e.g. \'{"hidden": [128, 128], "init_log_std": -1.0}\'',
     )
     tr.add_argument(
         "--out",

@@ -13,7 +13,7 @@ import copy
 import io
 import json
 import time
-from dataclasses import asdict
+from dataclasses import asdict, dataclass
 from pathlib import Path
 
 import numpy as np
@@ -22,7 +22,7 @@ from tqdm import tqdm
 
 import bench
 from bench import atomic, envs, paths
-from bench.rl.networks import DeterministicPolicy, GaussianPolicy
+from bench.rl.networks import DeterministicPolicy, GaussianPolicy, orthogonal_init
 from bench.rl.rollout import evaluate
 from bench.rl.trpo import TRPO, TRPOConfig, train
 
@@ -31,6 +31,17 @@ CHECKPOINT = "checkpoint.pt"
 """Training progress, in the expert's folder until the expert is saved (not shipped)."""
 CHECKPOINT_SECONDS = 120.0
 """How often a training run saves its progress: a killed run loses at most this much."""
+
+
+@dataclass
+class ExpertConfig(TRPOConfig):
+    """TRPO as an expert is trained: the learners' settings, plus what only expert training
+    varies (a field here would change every learner's trial ids in TRPOConfig)."""
+
+    orthogonal_init: bool = False
+    """Orthogonal initialization of policy and value (gains sqrt 2, last layers 0.01 and 1), as
+    in the RL Baselines Zoo's TRPO references; off: PyTorch's defaults (the policy's last layer
+    scaled by 0.01), as the learners start."""
 
 
 class ExpertError(FileNotFoundError):
@@ -92,7 +103,7 @@ def train_expert(
     env_id: str,
     steps: int,
     seed: int = 0,
-    cfg: TRPOConfig | None = None,
+    cfg: ExpertConfig | TRPOConfig | None = None,
     out_dir: Path | None = None,
     progress: bool = True,
     command: str | None = None,
@@ -106,11 +117,14 @@ def train_expert(
     it (with fresh episodes, so not bit for bit the run it would have been), and the file is
     removed once the expert is saved.
     """
-    cfg = cfg or TRPOConfig()
+    cfg = cfg or ExpertConfig()
     out = out_dir or paths.expert_dir(env_id)
     obs_dim, act_dim, low, high = envs.spaces(env_id)
     settings = json.dumps({"env_id": env_id, "steps": steps, "seed": seed, "cfg": asdict(cfg)})
     learner = TRPO(obs_dim, act_dim, cfg, seed)
+    if getattr(cfg, "orthogonal_init", False):
+        orthogonal_init(learner.policy.mean_net, last_gain=0.01)
+        orthogonal_init(learner.value.net, last_gain=1.0)
     run = {"steps": 0, "wall_time_s": 0.0, "resumes": 0, "recent": []}
     best = {"score": -np.inf, "state": None, "steps": 0}
     if (out / CHECKPOINT).exists():

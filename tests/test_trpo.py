@@ -3,7 +3,7 @@ import torch
 
 from bench import envs
 from bench.experts import evaluate_policy
-from bench.rl.networks import DeterministicPolicy, GaussianPolicy, RunningNorm
+from bench.rl.networks import DeterministicPolicy, GaussianPolicy, RunningNorm, orthogonal_init
 from bench.rl.rollout import VecCollector
 from bench.rl.trpo import TRPOConfig, gae, train
 
@@ -91,3 +91,14 @@ def test_trpo_solves_inverted_pendulum_within_100k_steps(pendulum):
     policy = DeterministicPolicy(learner.policy, np.array([-1.0]), np.array([1.0]))
     returns = evaluate_policy(policy, pendulum, episodes=10, seed=123)
     assert np.mean(returns) >= 950, returns
+
+
+def test_orthogonal_init_scales_hidden_layers_by_root_two_and_the_last_by_its_gain():
+    policy = GaussianPolicy(5, 3, (16, 8))
+    orthogonal_init(policy.mean_net, last_gain=0.01)
+    first, second, last = (m for m in policy.mean_net if isinstance(m, torch.nn.Linear))
+    # (16, 5): orthonormal columns times the gain; (8, 16): orthonormal rows
+    torch.testing.assert_close(first.weight.T @ first.weight, 2.0 * torch.eye(5))
+    torch.testing.assert_close(second.weight @ second.weight.T, 2.0 * torch.eye(8))
+    torch.testing.assert_close(last.weight @ last.weight.T, 1e-4 * torch.eye(3))
+    assert all(not m.bias.any() for m in (first, second, last))

@@ -96,6 +96,16 @@ def mlp(sizes: list[int], activation: type[nn.Module] = nn.Tanh) -> nn.Sequentia
     return nn.Sequential(*layers)
 
 
+def orthogonal_init(net: nn.Module, last_gain: float) -> None:
+    """Orthogonal weights and zero biases: gain sqrt(2) on every layer but the last, `last_gain`
+    on the last (OpenAI Baselines' and Stable-Baselines3's initialization for TRPO and PPO)."""
+    layers = [m for m in net.modules() if isinstance(m, nn.Linear | nn.Conv2d)]
+    for i, layer in enumerate(layers):
+        gain = last_gain if i == len(layers) - 1 else math.sqrt(2)
+        nn.init.orthogonal_(layer.weight, gain)
+        nn.init.zeros_(layer.bias)
+
+
 class ConvTrunk(nn.Module):
     """(B, C, H, W) images in [0, 1] -> (B, F) features: the first two layers of the DQN
     encoder (8x8 stride 4, 4x4 stride 2, ReLU) at half its width, small enough for CPUs."""
