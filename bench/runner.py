@@ -234,14 +234,19 @@ def pending(specs: list[TrialSpec], have: dict[str, str], retry_failed: bool) ->
     return keep
 
 
+def observed(spec: TrialSpec) -> str | None:
+    """How a trial sees its env, where that is not the state vector: "pixels", "video-reward",
+    with the frame size where it is not the default ("pixels 32px")."""
+    if spec.observation is None or spec.frame_size is None:
+        return spec.observation
+    return f"{spec.observation} {spec.frame_size}px"
+
+
 def cost_kind(spec: TrialSpec) -> tuple[str, str]:
     """What a trial's cost per env step depends on: its env as observed, and its algorithm.
     Frames cost ~100x states per step, so they are another kind: "ENV (pixels)"."""
-    seen = spec.observation
-    if seen is not None and spec.frame_size is not None:
-        seen = f"{seen} {spec.frame_size}px"
-    env = spec.env_id if seen is None else f"{spec.env_id} ({seen})"
-    return env, spec.algorithm
+    seen = observed(spec)
+    return (spec.env_id if seen is None else f"{spec.env_id} ({seen})"), spec.algorithm
 
 
 @dataclass
@@ -289,12 +294,15 @@ class Estimate:
 def estimate(specs: list[TrialSpec], records: Iterable[TrialResult]) -> list[Estimate]:
     """Expected cost of `specs` per (env, algorithm), from the seconds per env step that
     finished `records` took: their mean on the same env if any, else the slowest measured
-    env's (rough: envs step at different speeds). Records made while the machine was busy
-    make an estimate high."""
+    env's seen the same way (rough: envs step at different speeds; a state trial never goes by
+    a pixel one's). Records made while the machine was busy make an estimate high."""
     per_step: dict[tuple[str, str], list[float]] = {}
+    seen_as: dict[str, str | None] = {}
     for r in records:
         if r.status == "ok" and r.spec.budget > 0:
-            per_step.setdefault(cost_kind(r.spec), []).append(r.wall_time / r.spec.budget)
+            env, algorithm = cost_kind(r.spec)
+            per_step.setdefault((env, algorithm), []).append(r.wall_time / r.spec.budget)
+            seen_as[env] = observed(r.spec)
     groups: dict[tuple[str, str], list[TrialSpec]] = {}
     for spec in specs:
         groups.setdefault(cost_kind(spec), []).append(spec)
@@ -302,7 +310,11 @@ def estimate(specs: list[TrialSpec], records: Iterable[TrialResult]) -> list[Est
     for (env_id, algorithm), group in groups.items():
         budget = sum(s.budget for s in group) / len(group)
         here = per_step.get((env_id, algorithm))
-        elsewhere = {e: np.mean(vs) for (e, a), vs in per_step.items() if a == algorithm}
+        elsewhere = {
+            e: np.mean(vs)
+            for (e, a), vs in per_step.items()
+            if a == algorithm and seen_as[e] == observed(group[0])
+        }
         if here:
             seconds, basis = float(np.mean(here)) * budget, f"mean of {len(here)} trials"
         elif elsewhere:

@@ -1,5 +1,6 @@
 """The runner for real: loky and dask workers, SIGKILL and resume, plugins, failures."""
 
+import dataclasses
 import json
 import os
 import signal
@@ -230,3 +231,16 @@ def test_estimate_from_seconds_per_step_here_or_at_most_the_slowest_env():
     assert rows["C", "gaifo"].seconds == pytest.approx(200.0)  # B's 0.1 s per step, the slowest
     assert "B" in rows["C", "gaifo"].basis
     assert rows["C", "bco"].seconds is None
+
+
+def test_a_state_trials_estimate_never_goes_by_a_pixel_trials_cost():
+    def done(env_id: str, observation: str | None, seconds: float) -> TrialResult:
+        spec = TrialSpec("s", env_id, "gaifo", 5, 0, 1000, 10, observation=observation)
+        return TrialResult(spec, "ok", [1.0], [], 1000, seconds, {})
+
+    records = [done("A", None, 10.0), done("B", "pixels", 500.0)]
+    todo = [TrialSpec("s", "C", "gaifo", 5, 1, 1000, 10)]
+    (row,) = estimate(todo, records)
+    assert row.seconds == pytest.approx(10.0) and "A" in row.basis
+    (row,) = estimate([dataclasses.replace(todo[0], observation="pixels")], records)
+    assert row.seconds == pytest.approx(500.0) and "B (pixels)" in row.basis
