@@ -296,24 +296,22 @@ def estimate(specs: list[TrialSpec], records: Iterable[TrialResult]) -> list[Est
     finished `records` took: their mean on the same env if any, else the slowest measured
     env's seen the same way (rough: envs step at different speeds; a state trial never goes by
     a pixel one's). Records made while the machine was busy make an estimate high."""
-    per_step: dict[tuple[str, str], list[float]] = {}
-    seen_as: dict[str, str | None] = {}
+    # Keyed by how the env is seen as well: a state trial only goes by state trials.
+    per_step: dict[tuple[str | None, str, str], list[float]] = {}
     for r in records:
         if r.status == "ok" and r.spec.budget > 0:
-            env, algorithm = cost_kind(r.spec)
-            per_step.setdefault((env, algorithm), []).append(r.wall_time / r.spec.budget)
-            seen_as[env] = observed(r.spec)
+            key = (observed(r.spec), *cost_kind(r.spec))
+            per_step.setdefault(key, []).append(r.wall_time / r.spec.budget)
     groups: dict[tuple[str, str], list[TrialSpec]] = {}
     for spec in specs:
         groups.setdefault(cost_kind(spec), []).append(spec)
     out = []
     for (env_id, algorithm), group in groups.items():
         budget = sum(s.budget for s in group) / len(group)
-        here = per_step.get((env_id, algorithm))
+        seen = observed(group[0])
+        here = per_step.get((seen, env_id, algorithm))
         elsewhere = {
-            e: np.mean(vs)
-            for (e, a), vs in per_step.items()
-            if a == algorithm and seen_as[e] == observed(group[0])
+            e: np.mean(vs) for (o, e, a), vs in per_step.items() if o == seen and a == algorithm
         }
         if here:
             seconds, basis = float(np.mean(here)) * budget, f"mean of {len(here)} trials"
