@@ -69,11 +69,12 @@ class AdversarialConfig(ImitationTRPOConfig):
     """Terminations lead into an absorbing state that D judges (bench.rl.absorbing); off: valued 0."""
 
     def __post_init__(self) -> None:
+        super().__post_init__()
         if self.reward not in REWARDS:
             raise ValueError(
                 f"reward must be one of {', '.join(map(repr, REWARDS))}, not {self.reward!r}"
             )
-        self.hidden, self.disc_hidden = tuple(self.hidden), tuple(self.disc_hidden)
+        self.disc_hidden = tuple(self.disc_hidden)
 
 
 Features = Callable[[torch.Tensor, torch.Tensor, torch.Tensor], torch.Tensor]

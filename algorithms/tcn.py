@@ -71,7 +71,8 @@ class TCNConfig(TRPOConfig):
     reward is negative and ending early does not pay (see the module docstring)."""
 
     def __post_init__(self) -> None:
-        self.hidden, self.embed_hidden = tuple(self.hidden), tuple(self.embed_hidden)
+        super().__post_init__()
+        self.embed_hidden = tuple(self.embed_hidden)
         if not 1 <= self.pos_window < self.neg_margin:
             raise ValueError("need 1 <= pos_window < neg_margin")
 

@@ -8,7 +8,9 @@ A suite names everything one experiment runs::
       # optional per env: dataset (a Minari dataset's demos instead of the shipped expert's),
       # observation: pixels (learners see stacked 64x64 grayscale frames, demos are video),
       # or video-reward (learners act on states, demos are video: not the paper's setting);
-      # with either, frame_size: 32 (frame side in pixels, default 64; ~3.5x cheaper per step)
+      # with either, frame_size: 32 (frame side in pixels, default 64; ~3.5x cheaper per step);
+      # trpo: {n_envs: 16} (TRPO settings for every TRPO learner on this env, e.g. its batch,
+      # so the survival control stays matched; an algorithm's own setting wins)
     demos: [1, 5, 10, 25]  # demonstration counts: distinct ints in 1..DEMO_POOL_SIZE
     algorithms:            # a name, or {name: {hyperparameter: value}}
       - random
@@ -40,11 +42,12 @@ import yaml
 from bench import paths, registry
 from bench.demos import POOL_SIZE as DEMO_POOL_SIZE
 from bench.envs import EnvError, check_env_id
+from bench.rl.trpo import TRPOConfig
 from bench.types import TrialSpec
 
 _SUITE_KEYS = ("name", "envs", "demos", "algorithms", "seeds", "eval_episodes", "runner")
 _REQUIRED_KEYS = ("envs", "demos", "algorithms")
-_ENV_KEYS = ("budget", "dataset", "observation", "frame_size")
+_ENV_KEYS = ("budget", "dataset", "observation", "frame_size", "trpo")
 _OBSERVATIONS = ("states", "pixels", "video-reward")
 _RUNNER_KEYS = ("jobs", "backend")
 _BACKENDS = ("loky", "dask")
@@ -77,6 +80,10 @@ class EnvSettings:
     "video-reward": learners act on states and imitate the expert's video."""
     frame_size: int | None = None
     """Frame side in pixels with pixels or video-reward (None: 64). 32 costs ~3.5x less per step."""
+    trpo: dict[str, Any] = field(default_factory=dict, hash=False)
+    """TRPOConfig overrides for every algorithm on this env whose config extends TRPOConfig:
+    what a task needs from the optimizer (its batch, say) is the task's, and applying it to
+    all TRPO learners keeps the survival control matched to the imitators."""
 
 
 @dataclass(frozen=True)
@@ -84,6 +91,8 @@ class AlgorithmEntry:
     name: str
     hyperparams: dict[str, Any] = field(default_factory=dict, hash=False)
     """The algorithm's full config: defaults with the suite's overrides applied, validated."""
+    overrides: dict[str, Any] = field(default_factory=dict, hash=False)
+    """Just the suite's overrides: an env's `trpo` settings go under them."""
     uses_demos: bool = True
     """False for algorithms whose inputs are "none" or "expert": run once, with n_demos=0."""
     label: str | None = None
@@ -169,12 +178,26 @@ def _spec(
         seed=seed,
         budget=env.budget,
         eval_episodes=suite.eval_episodes,
-        hyperparams=dict(algo.hyperparams),  # a copy: specs outlive the suite
+        hyperparams=_hyperparams(env, algo),
         label=algo.label,
         dataset=env.dataset,
         observation=env.observation,
         frame_size=env.frame_size,
     )
+
+
+def _hyperparams(env: EnvSettings, algo: AlgorithmEntry) -> dict[str, Any]:
+    """The algorithm's resolved config on this env: its own, or with the env's TRPO settings
+    under its overrides if it is a TRPO learner. A fresh dict: specs outlive the suite."""
+    config = registry.get(algo.name).config
+    if not env.trpo or not issubclass(config, TRPOConfig):
+        return dict(algo.hyperparams)
+    return _resolve(registry.get(algo.name), {**env.trpo, **algo.overrides})
+
+
+def _resolve(algo: registry.Algorithm, overrides: dict[str, Any]) -> dict[str, Any]:
+    # Specs carry the full resolved config, defaults included: a changed default is a new id.
+    return json.loads(json.dumps(dataclasses.asdict(algo.make_config(overrides))))
 
 
 # ---------------------------------------------------------------- reading
@@ -262,6 +285,8 @@ def _suite(raw: Any, default_name: str) -> Suite:
             check_env_id(env.env_id)
         except EnvError as e:
             raise _Invalid(f"envs.{env.env_id}", _one_line(str(e))) from None
+        if env.trpo:
+            _check_trpo_learners(env, algorithms)
         if env.observation is not None:
             _check_video_learners(env, algorithms)
         if env.dataset is not None:  # its demonstrator is the 1.0: no shipped expert needed
@@ -362,8 +387,44 @@ def _envs(raw: Any) -> tuple[EnvSettings, ...]:
                 raise _Invalid(f"{key}.frame_size", "only with observation: pixels or video-reward")
             frame_size = _int(frame_size, f"{key}.frame_size", 24, 256)  # the conv trunk needs 20+
         seen = None if observation == "states" else observation
-        envs.append(EnvSettings(env_id, budget, dataset, seen, frame_size))
+        trpo = _trpo_settings(settings.get("trpo", {}), f"{key}.trpo")
+        envs.append(EnvSettings(env_id, budget, dataset, seen, frame_size, trpo))
     return tuple(envs)
+
+
+def _trpo_settings(raw: Any, key: str) -> dict[str, Any]:
+    """An env's TRPOConfig overrides: known fields, values of the default's type."""
+    if not isinstance(raw, dict):
+        raise _Invalid(key, f"expected a mapping like {{n_envs: 16}}, got {_show(raw)}")
+    fields = {f.name: f for f in dataclasses.fields(TRPOConfig)}
+    for name, value in raw.items():
+        if name not in fields:
+            raise _Invalid(
+                f"{key}.{name}", f"not a TRPO setting (known: {', '.join(sorted(fields))})"
+            )
+        expected = _scalar_type(fields[name])
+        if expected is not None and not _matches(value, expected):
+            raise _Invalid(
+                f"{key}.{name}",
+                f"expected {expected.__name__}, got {_show(value)}{_number_hint(value)}",
+            )
+    try:
+        TRPOConfig(**raw)
+    except (TypeError, ValueError) as e:
+        raise _Invalid(key, _one_line(str(e))) from None
+    return dict(raw)
+
+
+def _check_trpo_learners(env: EnvSettings, algorithms: tuple[AlgorithmEntry, ...]) -> None:
+    """Each TRPO learner's config still builds with the env's settings under its own."""
+    for entry in algorithms:
+        algo = registry.get(entry.name)
+        if issubclass(algo.config, TRPOConfig):
+            try:
+                algo.make_config({**env.trpo, **entry.overrides})
+            except (TypeError, ValueError) as e:
+                where = f"envs.{env.env_id}.trpo"
+                raise _Invalid(where, f"{entry.shown}: {_one_line(str(e))}") from None
 
 
 def _seeds(raw: Any, key: str = "seeds") -> tuple[int, ...]:
@@ -408,9 +469,7 @@ def _algorithms(raw: Any) -> tuple[AlgorithmEntry, ...]:
             raise _Invalid(key, _one_line(str(e))) from None
         for shown, variant in _variants(algo, label, overrides, key):
             _check_hyperparams(algo, variant, f"{key}.{name}")
-            # Specs carry the full resolved config, defaults included: a changed default is a
-            # new trial id.
-            resolved = json.loads(json.dumps(dataclasses.asdict(algo.make_config(variant))))
+            resolved = _resolve(algo, variant)
             if shown in entries:
                 # Records and plots group by what is shown, so two entries would silently merge.
                 raise _Invalid(
@@ -420,7 +479,9 @@ def _algorithms(raw: Any) -> tuple[AlgorithmEntry, ...]:
                 )
             uses_demos = algo.inputs in ("states", "actions")
             label_or_none = None if shown == name else shown
-            entries[shown] = AlgorithmEntry(name, resolved, uses_demos, label_or_none, seeds)
+            entries[shown] = AlgorithmEntry(
+                name, resolved, variant, uses_demos, label_or_none, seeds
+            )
     return tuple(entries.values())
 
 

@@ -9,6 +9,7 @@ import pytest
 import yaml
 
 from bench import paths, registry
+from bench.rl.trpo import TRPOConfig
 from bench.suite import DEMO_POOL_SIZE, RunnerSettings, SuiteError, expand, load_suite, select
 
 PENDULUM = "InvertedPendulumBulletEnv-v0"
@@ -28,6 +29,11 @@ class NoConfig:
     pass
 
 
+@dataclass
+class TrpoLearnerConfig(TRPOConfig):
+    disc_lr: float = 1e-3
+
+
 def _train(task, demos, budget, seed, logger, config):
     raise NotImplementedError  # suites never train
 
@@ -41,6 +47,7 @@ def algorithms(monkeypatch):
     registry.register("expert", config=NoConfig, inputs="expert")(_train)
     registry.register("ifo", config=IfoConfig, inputs="states")(_train)
     registry.register("with-actions", config=NoConfig, inputs="actions")(_train)
+    registry.register("trpo-ifo", config=TrpoLearnerConfig, inputs="states")(_train)
 
 
 @pytest.fixture(autouse=True)
@@ -287,6 +294,22 @@ BAD = [
         ),
         f"envs.{PENDULUM}.frame_size: expected an integer >= 24 <= 256, got 16",
     ),
+    (
+        lambda r: _set(r, ("envs", PENDULUM, "trpo"), {"nenvs": 16}),
+        f"envs.{PENDULUM}.trpo.nenvs: not a TRPO setting (known: cg_damping,",
+    ),
+    (
+        lambda r: _set(r, ("envs", PENDULUM, "trpo"), {"n_envs": 0}),
+        f"envs.{PENDULUM}.trpo: n_envs must be >= 1, not 0",
+    ),
+    (
+        lambda r: _set(r, ("envs", PENDULUM, "trpo"), {"n_envs": 1.5}),
+        f"envs.{PENDULUM}.trpo.n_envs: expected int, got 1.5",
+    ),
+    (
+        lambda r: _set(r, ("envs", PENDULUM, "trpo"), 16),
+        f"envs.{PENDULUM}.trpo: expected a mapping like {{n_envs: 16}}, got 16",
+    ),
 ]
 
 
@@ -334,10 +357,11 @@ def test_suite_error_is_a_value_error():
 
 def test_labelled_variants_of_one_algorithm(tmp_path):
     raw = base() | {
+        "name": "s",
         "algorithms": [
             "ifo",
             {"algorithm": "ifo", "label": "ifo-unnormalized", "normalize": False},
-        ]
+        ],
     }
     specs = expand(load_suite(write(tmp_path, raw)))
     shown = {s.shown for s in specs}
@@ -361,10 +385,11 @@ def test_a_list_sweeps_and_labels_say_the_values(tmp_path, monkeypatch):
 
     registry.register("net", config=NetConfig, inputs="states")(_train)
     raw = base() | {
+        "name": "s",
         "algorithms": [
             {"net": {"hidden": [32, 32]}},  # one value of a list-valued field
             {"algorithm": "net", "label": "grid", "lr": [0.001, 0.01], "hidden": [[8], [16]]},
-        ]
+        ],
     }
     entries = load_suite(write(tmp_path, raw)).algorithms
     assert [e.shown for e in entries] == [
@@ -428,3 +453,29 @@ def test_a_pixel_env_marks_its_trials_and_keeps_state_trial_ids(tmp_path):
     small = expand(load_suite(write(tmp_path, raw, "q.yaml")))
     assert {s.frame_size for s in small if s.env_id == PENDULUM} == {32}
     assert not {s.trial_id for s in small if s.env_id == PENDULUM} & {s.trial_id for s in pixels}
+
+
+def test_an_envs_trpo_settings_reach_every_trpo_learner_there_and_no_other(tmp_path):
+    raw = base() | {
+        "name": "s",
+        "algorithms": [
+            "random",
+            "ifo",
+            "trpo-ifo",
+            {"algorithm": "trpo-ifo", "label": "own", "n_envs": 4},
+        ],
+    }
+    plain = {s.trial_id for s in expand(load_suite(write(tmp_path, raw)))}
+    _set(raw, ("envs", PENDULUM, "trpo"), {"n_envs": 16, "gamma": 0.995})
+    specs = expand(load_suite(write(tmp_path, raw, "t.yaml")))
+    for spec in specs:
+        changed = spec.env_id == PENDULUM and spec.algorithm == "trpo-ifo"
+        assert (spec.trial_id not in plain) == changed  # everything else keeps its id
+        if changed:  # the env's settings go under the entry's own, and the rest stay resolved
+            want = (4 if spec.label == "own" else 16, 0.995, 1e-3)
+            got = (
+                spec.hyperparams["n_envs"],
+                spec.hyperparams["gamma"],
+                spec.hyperparams["disc_lr"],
+            )
+            assert got == want

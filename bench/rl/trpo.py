@@ -54,6 +54,15 @@ class TRPOConfig:
     init_log_std: float = 0.0
     """Initial log standard deviation of the policy."""
 
+    def __post_init__(self) -> None:
+        self.hidden = tuple(self.hidden)  # YAML gives lists
+        counts = ("n_envs", "steps_per_env", "cg_iters", "fisher_subsample", "vf_epochs")
+        for name in (*counts, "vf_minibatch"):
+            if getattr(self, name) < 1:
+                raise ValueError(f"{name} must be >= 1, not {getattr(self, name)}")
+        if not (0 < self.gamma <= 1 and 0 <= self.gae_lambda <= 1 and self.max_kl > 0):
+            raise ValueError("need 0 < gamma <= 1, 0 <= gae_lambda <= 1 and max_kl > 0")
+
     @property
     def batch_size(self) -> int:
         return self.n_envs * self.steps_per_env
