@@ -25,21 +25,25 @@ def run(tmp_path, body: str):
     return normalize.normalize(store.load(tmp_path / "res"))
 
 
-def test_gaifo_imitates_inverted_pendulum_from_one_demonstration(tmp_path):
+@pytest.mark.parametrize("learner", ["gaifo", "gail"])
+def test_adversarial_learners_imitate_inverted_pendulum_from_one_demonstration(tmp_path, learner):
+    # The suites' setting for this task: a 4,096-step TRPO batch (README, "Batch size per task").
     df = run(
         tmp_path,
-        f"name: learn\nenvs: {{{PENDULUM}: {{budget: 100000}}}}\ndemos: [1]\n"
-        f"algorithms: [random, expert, gaifo]\nseeds: {SEEDS}\neval_episodes: 10\n",
+        f"name: learn\nenvs: {{{PENDULUM}: {{budget: 100000, trpo: {{n_envs: 16}}}}}}\n"
+        f"demos: [1]\nalgorithms: [random, expert, {learner}]\nseeds: {SEEDS}\n"
+        "eval_episodes: 10\n",
     )
-    gaifo = df[df.algorithm == "gaifo"]
-    assert len(gaifo) == len(SEEDS)
-    shown = gaifo[["seed", "return", "normalized"]]
-    # Measured with the defaults: seeds 0-5 all 1.00; seeds 10-15 1.00 0.41 1.00 0.89 1.00 1.00.
-    # About one seed in eight ends below 0.9 on one machine, and another CPU may move a seed
-    # across, so two of six may miss 0.8; a third, or a median below 0.95, means it broke.
-    assert gaifo.normalized.median() >= 0.95, shown
-    assert (gaifo.normalized >= 0.8).sum() >= len(SEEDS) - 2, shown
-    assert (gaifo.env_steps <= 100_000).all()
+    runs = df[df.algorithm == learner]
+    assert len(runs) == len(SEEDS)
+    shown = runs[["seed", "return", "normalized"]]
+    # Measured with this setting, 1 demo: seeds 0-29 all >= 0.95 for GAIL; for GAIfO all but
+    # seed 7 (0.64). About one GAIfO seed in thirty misses on one machine, and another CPU may
+    # move a seed across, so two of six may miss 0.8; a third, or a median below 0.95, means
+    # it broke. Checked on seeds 0-5, 10-15 and 20-25.
+    assert runs.normalized.median() >= 0.95, shown
+    assert (runs.normalized >= 0.8).sum() >= len(SEEDS) - 2, shown
+    assert (runs.env_steps <= 100_000).all()
     logs = store.load_logs(tmp_path / "res")
     assert {
         "disc_loss",
@@ -49,4 +53,4 @@ def test_gaifo_imitates_inverted_pendulum_from_one_demonstration(tmp_path):
         "terminations",
     } <= set(logs.key)
     curves = store.load_curves(tmp_path / "res")
-    assert len(curves[curves.algorithm == "gaifo"]) >= len(SEEDS) * 5
+    assert len(curves[curves.algorithm == learner]) >= len(SEEDS) * 5
