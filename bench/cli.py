@@ -101,6 +101,11 @@ def _run(args: argparse.Namespace) -> int:
     if args.estimate:
         return _estimate(specs, results, jobs)
     print(f"suite {suite.name}: {len(specs)} trials -> {results}/", file=sys.stderr)
+    if args.reuse:
+        from bench.reuse import reuse
+
+        copied = reuse(specs, results, args.reuse)
+        print(f"{copied} finished trials copied from {', '.join(args.reuse)}", file=sys.stderr)
     summary = run_suite(
         specs,
         results,
@@ -281,6 +286,13 @@ def build_parser() -> argparse.ArgumentParser:
         "--jobs", type=int, help="parallel trials (default: the suite's, else all cores)"
     )
     run.add_argument("--retry-failed", action="store_true", help="rerun trials recorded as failed")
+    run.add_argument(
+        "--reuse",
+        action="append",
+        metavar="DIR",
+        help="copy finished records of the same trials (all alike but the suite's name) from"
+        " another results folder instead of running them (repeatable)",
+    )
     run.add_argument(
         "--estimate",
         action="store_true",

@@ -79,6 +79,7 @@ def read(path: str | Path) -> TrialResult:
         inputs=raw.get("inputs"),
         reference=raw.get("reference"),
         state_distance=raw.get("state_distance"),
+        copied_from=raw.get("copied_from"),
     )
 
 

@@ -160,6 +160,9 @@ class TrialResult:
     """How far the evaluation episodes' states lie from the expert's pool
     (`bench.state_match.state_distance`: 0 = distributed alike); None from pixels, for a
     dataset's demonstrator, and in records written before it was measured."""
+    copied_from: str | None = None
+    """`<results dir>/trials/<id>.json` this record was copied from by `bench run --reuse`: the
+    same trial (every setting alike) run for another suite; None where it ran for this one."""
 
     @property
     def trial_id(self) -> str:

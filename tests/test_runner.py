@@ -244,3 +244,39 @@ def test_a_state_trials_estimate_never_goes_by_a_pixel_trials_cost():
     assert row.seconds == pytest.approx(10.0) and "A" in row.basis
     (row,) = estimate([dataclasses.replace(todo[0], observation="pixels")], records)
     assert row.seconds == pytest.approx(500.0) and "B (pixels)" in row.basis
+
+
+def test_reuse_copies_the_same_trials_from_another_suite_and_runs_the_rest(tmp_path, cli):
+    body = f"envs: {{{PENDULUM}: {{budget: 1000}}}}\ndemos: [1]\nalgorithms: [random, survival]\n"
+    first = write_suite(tmp_path, "first", body + "seeds: 2\neval_episodes: 2\n")
+    # survival fails (its first batch exceeds the budget): failed records are never copied
+    assert cli("run", str(first), "--results", str(tmp_path / "a"), "--jobs", "1").returncode == 1
+    second = write_suite(tmp_path, "second", body + "seeds: 3\neval_episodes: 2\n")
+    other = write_suite(tmp_path, "other", body + "seeds: 3\neval_episodes: 3\n")
+    for suite, copied in ((second, 2), (other, 0)):  # other evaluates differently: not the same
+        out = cli(
+            "run",
+            str(suite),
+            "--results",
+            str(tmp_path / suite.stem),
+            "--jobs",
+            "1",
+            "--reuse",
+            str(tmp_path / "a"),
+        )
+        assert f"{copied} finished trials copied from" in out.stderr
+        assert f"{3 - copied} trials done, 3 failed" in out.stdout
+    old = {(r.spec.seed, r.spec.algorithm): r for r in store.scan(tmp_path / "a")}
+    new = {(r.spec.seed, r.spec.algorithm): r for r in store.scan(tmp_path / "second")}
+    for seed in (0, 1):
+        copy, source = new[seed, "random"], old[seed, "random"]
+        assert copy.spec == dataclasses.replace(source.spec, suite="second")
+        assert copy.returns == source.returns and copy.copied_from.endswith(
+            f"{source.trial_id}.json"
+        )
+    assert new[2, "random"].copied_from is None  # no such trial there: it ran
+    assert {s.trial_id for s in expand(load_suite(second))} == {
+        p.stem for p in (tmp_path / "second" / "trials").glob("*.json")
+    }
+    out = cli("run", str(second), "--reuse", str(tmp_path / "nowhere"))
+    assert out.returncode == 2 and "nowhere: no trial records to reuse" in out.stderr

@@ -1,0 +1,56 @@
+"""Records of one suite's trials taken from another suite's folder (`bench run --reuse DIR`).
+
+Suites overlap: Hopper at 1M steps with 5 demonstrations is a trial of
+`hopper-adversarial`, of `pybullet-slice` and of `locomotion`. A trial's id hashes
+its suite's name, so each suite would run it again. Everything else that decides
+the outcome (env, algorithm, resolved config, demos, seed, budget, evaluation)
+is in the spec, so a finished record whose spec differs only in the suite's name
+is that trial: it is copied, marked with where it came from (`copied_from`),
+instead of spending core-hours to redraw it. (On one machine the rerun would be
+bit-identical; on another it would be a fresh draw of the same distribution.)
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+from collections.abc import Iterable
+from pathlib import Path
+
+from bench import store
+from bench.types import TrialResult, TrialSpec
+
+
+def _key(spec: TrialSpec) -> str:
+    """The spec without its suite's name: what the trial is, wherever it ran."""
+    return json.dumps({**json.loads(spec.canonical()), "suite": None}, sort_keys=True)
+
+
+def reuse(
+    specs: Iterable[TrialSpec], results_dir: str | Path, sources: Iterable[str | Path]
+) -> int:
+    """Copy into `results_dir` a finished record from `sources` for every spec that has no
+    finished record there yet; return how many were copied. Failed records are never copied."""
+    finished = {r.trial_id for r in store.scan(results_dir) if r.status == "ok"}
+    available: dict[str, tuple[Path, TrialResult]] = {}
+    for source in sources:
+        if not store.trials_dir(source).is_dir():
+            raise FileNotFoundError(
+                f"{source}: no trial records to reuse (no {store.TRIALS}/ there)"
+            )
+        if Path(source).resolve() == Path(results_dir).resolve():
+            continue  # its own records are resumed anyway
+        for record in store.scan(source):
+            if record.status == "ok":
+                path = store.record_path(source, record.trial_id)
+                available.setdefault(_key(record.spec), (path, record))
+    copied = 0
+    for spec in specs:
+        if spec.trial_id in finished or _key(spec) not in available:
+            continue
+        path, record = available[_key(spec)]
+        origin = record.copied_from or str(path)  # a copy of a copy names the run itself
+        store.write(results_dir, dataclasses.replace(record, spec=spec, copied_from=origin))
+        finished.add(spec.trial_id)
+        copied += 1
+    return copied
