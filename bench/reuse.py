@@ -46,9 +46,10 @@ def reuse(
                 available.setdefault(_key(record.spec), (path, record))
     copied = 0
     for spec in specs:
-        if spec.trial_id in finished or _key(spec) not in available:
+        match = available.get(_key(spec))
+        if spec.trial_id in finished or match is None:
             continue
-        path, record = available[_key(spec)]
+        path, record = match
         origin = record.copied_from or str(path)  # a copy of a copy names the run itself
         store.write(results_dir, dataclasses.replace(record, spec=spec, copied_from=origin))
         finished.add(spec.trial_id)

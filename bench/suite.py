@@ -189,10 +189,10 @@ def _spec(
 def _hyperparams(env: EnvSettings, algo: AlgorithmEntry) -> dict[str, Any]:
     """The algorithm's resolved config on this env: its own, or with the env's TRPO settings
     under its overrides if it is a TRPO learner. A fresh dict: specs outlive the suite."""
-    config = registry.get(algo.name).config
-    if not env.trpo or not issubclass(config, TRPOConfig):
+    algorithm = registry.get(algo.name)
+    if not env.trpo or not issubclass(algorithm.config, TRPOConfig):
         return dict(algo.hyperparams)
-    return _resolve(registry.get(algo.name), {**env.trpo, **algo.overrides})
+    return _resolve(algorithm, {**env.trpo, **algo.overrides})
 
 
 def _resolve(algo: registry.Algorithm, overrides: dict[str, Any]) -> dict[str, Any]:
@@ -397,17 +397,12 @@ def _trpo_settings(raw: Any, key: str) -> dict[str, Any]:
     if not isinstance(raw, dict):
         raise _Invalid(key, f"expected a mapping like {{n_envs: 16}}, got {_show(raw)}")
     fields = {f.name: f for f in dataclasses.fields(TRPOConfig)}
-    for name, value in raw.items():
+    for name in raw:
         if name not in fields:
             raise _Invalid(
                 f"{key}.{name}", f"not a TRPO setting (known: {', '.join(sorted(fields))})"
             )
-        expected = _scalar_type(fields[name])
-        if expected is not None and not _matches(value, expected):
-            raise _Invalid(
-                f"{key}.{name}",
-                f"expected {expected.__name__}, got {_show(value)}{_number_hint(value)}",
-            )
+    _check_types(fields, raw, key)
     try:
         TRPOConfig(**raw)
     except (TypeError, ValueError) as e:
@@ -418,13 +413,11 @@ def _trpo_settings(raw: Any, key: str) -> dict[str, Any]:
 def _check_trpo_learners(env: EnvSettings, algorithms: tuple[AlgorithmEntry, ...]) -> None:
     """Each TRPO learner's config still builds with the env's settings under its own."""
     for entry in algorithms:
-        algo = registry.get(entry.name)
-        if issubclass(algo.config, TRPOConfig):
-            try:
-                algo.make_config({**env.trpo, **entry.overrides})
-            except (TypeError, ValueError) as e:
-                where = f"envs.{env.env_id}.trpo"
-                raise _Invalid(where, f"{entry.shown}: {_one_line(str(e))}") from None
+        try:
+            _hyperparams(env, entry)
+        except (TypeError, ValueError) as e:
+            where = f"envs.{env.env_id}.trpo"
+            raise _Invalid(where, f"{entry.shown}: {_one_line(str(e))}") from None
 
 
 def _seeds(raw: Any, key: str = "seeds") -> tuple[int, ...]:
@@ -571,18 +564,22 @@ def _check_hyperparams(algo: registry.Algorithm, overrides: dict, key: str) -> N
                 f"{key}.{name}",
                 f"expected a plain value (number, string, list), got {_show(value)}",
             ) from None
-    fields = {f.name: f for f in dataclasses.fields(algo.config)}
-    for name, value in overrides.items():
+    _check_types({f.name: f for f in dataclasses.fields(algo.config)}, overrides, key)
+    try:
+        algo.make_config(overrides)
+    except (TypeError, ValueError) as e:
+        raise _Invalid(key, _one_line(str(e))) from None
+
+
+def _check_types(fields: dict[str, dataclasses.Field], values: dict, key: str) -> None:
+    """Each value has its field's scalar type (unknown names are make_config's to report)."""
+    for name, value in values.items():
         expected = _scalar_type(fields[name]) if name in fields else None
         if expected is not None and not _matches(value, expected):
             raise _Invalid(
                 f"{key}.{name}",
                 f"expected {expected.__name__}, got {_show(value)}{_number_hint(value)}",
             )
-    try:
-        algo.make_config(overrides)
-    except (TypeError, ValueError) as e:
-        raise _Invalid(key, _one_line(str(e))) from None
 
 
 def _scalar_type(f: dataclasses.Field) -> type | None:

@@ -357,11 +357,10 @@ def test_suite_error_is_a_value_error():
 
 def test_labelled_variants_of_one_algorithm(tmp_path):
     raw = base() | {
-        "name": "s",
         "algorithms": [
             "ifo",
             {"algorithm": "ifo", "label": "ifo-unnormalized", "normalize": False},
-        ],
+        ]
     }
     specs = expand(load_suite(write(tmp_path, raw)))
     shown = {s.shown for s in specs}
@@ -385,11 +384,10 @@ def test_a_list_sweeps_and_labels_say_the_values(tmp_path, monkeypatch):
 
     registry.register("net", config=NetConfig, inputs="states")(_train)
     raw = base() | {
-        "name": "s",
         "algorithms": [
             {"net": {"hidden": [32, 32]}},  # one value of a list-valued field
             {"algorithm": "net", "label": "grid", "lr": [0.001, 0.01], "hidden": [[8], [16]]},
-        ],
+        ]
     }
     entries = load_suite(write(tmp_path, raw)).algorithms
     assert [e.shown for e in entries] == [
