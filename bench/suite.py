@@ -10,7 +10,9 @@ A suite names everything one experiment runs::
       # or video-reward (learners act on states, demos are video: not the paper's setting);
       # with either, frame_size: 32 (frame side in pixels, default 64; ~3.5x cheaper per step);
       # trpo: {n_envs: 16} (TRPO settings for every TRPO learner on this env, e.g. its batch,
-      # so the survival control stays matched; an algorithm's own setting wins)
+      # so the survival control stays matched; an algorithm's own setting wins);
+      # hyperparams: {disc_steps: 25} (settings for every algorithm on this env that has
+      # them, e.g. the adversarial learners' discriminator pace; an algorithm's own wins)
     demos: [1, 5, 10, 25]  # demonstration counts: distinct ints in 1..DEMO_POOL_SIZE
     algorithms:            # a name, or {name: {hyperparameter: value}}
       - random
@@ -47,7 +49,7 @@ from bench.types import TrialSpec
 
 _SUITE_KEYS = ("name", "envs", "demos", "algorithms", "seeds", "eval_episodes", "runner")
 _REQUIRED_KEYS = ("envs", "demos", "algorithms")
-_ENV_KEYS = ("budget", "dataset", "observation", "frame_size", "trpo")
+_ENV_KEYS = ("budget", "dataset", "observation", "frame_size", "trpo", "hyperparams")
 _OBSERVATIONS = ("states", "pixels", "video-reward")
 _RUNNER_KEYS = ("jobs", "backend")
 _BACKENDS = ("loky", "dask")
@@ -84,6 +86,10 @@ class EnvSettings:
     """TRPOConfig overrides for every algorithm on this env whose config extends TRPOConfig:
     what a task needs from the optimizer (its batch, say) is the task's, and applying it to
     all TRPO learners keeps the survival control matched to the imitators."""
+    hyperparams: dict[str, Any] = field(default_factory=dict, hash=False)
+    """Settings for every algorithm on this env whose config has them (each key goes to the
+    algorithms that know it), above `trpo` and under an algorithm's own overrides: what a
+    task needs from, say, a discriminator is the task's, not the suite's."""
 
 
 @dataclass(frozen=True)
@@ -92,7 +98,7 @@ class AlgorithmEntry:
     hyperparams: dict[str, Any] = field(default_factory=dict, hash=False)
     """The algorithm's full config: defaults with the suite's overrides applied, validated."""
     overrides: dict[str, Any] = field(default_factory=dict, hash=False)
-    """Just the suite's overrides: an env's `trpo` settings go under them."""
+    """Just the suite's overrides: an env's `trpo` and `hyperparams` settings go under them."""
     uses_demos: bool = True
     """False for algorithms whose inputs are "none" or "expert": run once, with n_demos=0."""
     label: str | None = None
@@ -187,12 +193,20 @@ def _spec(
 
 
 def _hyperparams(env: EnvSettings, algo: AlgorithmEntry) -> dict[str, Any]:
-    """The algorithm's resolved config on this env: its own, or with the env's TRPO settings
-    under its overrides if it is a TRPO learner. A fresh dict: specs outlive the suite."""
+    """The algorithm's resolved config on this env: its own, with the env's settings that apply
+    to it under its overrides (the env's TRPO settings if it is a TRPO learner, then the env's
+    hyperparams that its config has). A fresh dict: specs outlive the suite."""
     algorithm = registry.get(algo.name)
-    if not env.trpo or not issubclass(algorithm.config, TRPOConfig):
+    from_env = {k: v for k, v in env.hyperparams.items() if k in _field_names(algorithm)}
+    if env.trpo and issubclass(algorithm.config, TRPOConfig):
+        from_env = {**env.trpo, **from_env}
+    if not from_env:
         return dict(algo.hyperparams)
-    return _resolve(algorithm, {**env.trpo, **algo.overrides})
+    return _resolve(algorithm, {**from_env, **algo.overrides})
+
+
+def _field_names(algo: registry.Algorithm) -> set[str]:
+    return {f.name for f in dataclasses.fields(algo.config)}
 
 
 def _resolve(algo: registry.Algorithm, overrides: dict[str, Any]) -> dict[str, Any]:
@@ -285,8 +299,10 @@ def _suite(raw: Any, default_name: str) -> Suite:
             check_env_id(env.env_id)
         except EnvError as e:
             raise _Invalid(f"envs.{env.env_id}", _one_line(str(e))) from None
-        if env.trpo:
-            _check_trpo_learners(env, algorithms)
+        if env.hyperparams:
+            _check_env_hyperparams(env, algorithms)
+        if env.trpo or env.hyperparams:
+            _check_env_settings(env, algorithms)
         if env.observation is not None:
             _check_video_learners(env, algorithms)
         if env.dataset is not None:  # its demonstrator is the 1.0: no shipped expert needed
@@ -388,7 +404,8 @@ def _envs(raw: Any) -> tuple[EnvSettings, ...]:
             frame_size = _int(frame_size, f"{key}.frame_size", 24, 256)  # the conv trunk needs 20+
         seen = None if observation == "states" else observation
         trpo = _trpo_settings(settings.get("trpo", {}), f"{key}.trpo")
-        envs.append(EnvSettings(env_id, budget, dataset, seen, frame_size, trpo))
+        hyperparams = _plain_mapping(settings.get("hyperparams", {}), f"{key}.hyperparams")
+        envs.append(EnvSettings(env_id, budget, dataset, seen, frame_size, trpo, hyperparams))
     return tuple(envs)
 
 
@@ -410,13 +427,37 @@ def _trpo_settings(raw: Any, key: str) -> dict[str, Any]:
     return dict(raw)
 
 
-def _check_trpo_learners(env: EnvSettings, algorithms: tuple[AlgorithmEntry, ...]) -> None:
-    """Each TRPO learner's config still builds with the env's settings under its own."""
+def _plain_mapping(raw: Any, key: str) -> dict[str, Any]:
+    """A mapping of setting name -> plain (JSON) value, e.g. an env's hyperparams."""
+    if not isinstance(raw, dict):
+        raise _Invalid(key, f"expected a mapping like {{disc_steps: 25}}, got {_show(raw)}")
+    _check_plain(raw, key)
+    return dict(raw)
+
+
+def _check_env_hyperparams(env: EnvSettings, algorithms: tuple[AlgorithmEntry, ...]) -> None:
+    """Each of the env's hyperparams is a setting of some algorithm of the suite, of its type:
+    a typo would otherwise reach no algorithm and change nothing, silently."""
+    key = f"envs.{env.env_id}.hyperparams"
+    configs = [
+        {f.name: f for f in dataclasses.fields(registry.get(a.name).config)} for a in algorithms
+    ]
+    for name, value in env.hyperparams.items():
+        having = [fields for fields in configs if name in fields]
+        if not having:
+            shown = ", ".join(sorted({a.shown for a in algorithms}))
+            raise _Invalid(f"{key}.{name}", f"no algorithm of the suite has this setting ({shown})")
+        for fields in having:
+            _check_types(fields, {name: value}, key)
+
+
+def _check_env_settings(env: EnvSettings, algorithms: tuple[AlgorithmEntry, ...]) -> None:
+    """Each algorithm's config still builds with the env's settings under its own."""
     for entry in algorithms:
         try:
             _hyperparams(env, entry)
         except (TypeError, ValueError) as e:
-            where = f"envs.{env.env_id}.trpo"
+            where = f"envs.{env.env_id}.{'hyperparams' if env.hyperparams else 'trpo'}"
             raise _Invalid(where, f"{entry.shown}: {_one_line(str(e))}") from None
 
 
@@ -555,8 +596,8 @@ def _is_sweep(f: dataclasses.Field, values: list) -> bool:
     return all(isinstance(v, list) for v in values)
 
 
-def _check_hyperparams(algo: registry.Algorithm, overrides: dict, key: str) -> None:
-    for name, value in overrides.items():
+def _check_plain(values: dict, key: str) -> None:
+    for name, value in values.items():
         try:
             json.dumps(value, allow_nan=False)  # they go into TrialSpec, which is hashed as JSON
         except (TypeError, ValueError):
@@ -564,6 +605,10 @@ def _check_hyperparams(algo: registry.Algorithm, overrides: dict, key: str) -> N
                 f"{key}.{name}",
                 f"expected a plain value (number, string, list), got {_show(value)}",
             ) from None
+
+
+def _check_hyperparams(algo: registry.Algorithm, overrides: dict, key: str) -> None:
+    _check_plain(overrides, key)
     _check_types({f.name: f for f in dataclasses.fields(algo.config)}, overrides, key)
     try:
         algo.make_config(overrides)
