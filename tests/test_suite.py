@@ -310,6 +310,19 @@ BAD = [
         lambda r: _set(r, ("envs", PENDULUM, "trpo"), 16),
         f"envs.{PENDULUM}.trpo: expected a mapping like {{n_envs: 16}}, got 16",
     ),
+    (
+        lambda r: _set(r, ("envs", PENDULUM, "hyperparams"), {"lrr": 0.1}),
+        f"envs.{PENDULUM}.hyperparams.lrr: no algorithm of the suite has this setting"
+        " (expert, ifo, random, with-actions)",
+    ),
+    (
+        lambda r: _set(r, ("envs", PENDULUM, "hyperparams"), {"steps": "many"}),
+        f"envs.{PENDULUM}.hyperparams.steps: expected int, got 'many'",
+    ),
+    (
+        lambda r: _set(r, ("envs", PENDULUM, "hyperparams"), [25]),
+        f"envs.{PENDULUM}.hyperparams: expected a mapping like {{disc_steps: 25}}, got [25]",
+    ),
 ]
 
 
@@ -477,3 +490,30 @@ def test_an_envs_trpo_settings_reach_every_trpo_learner_there_and_no_other(tmp_p
                 spec.hyperparams["disc_lr"],
             )
             assert got == want
+
+
+def test_an_envs_hyperparams_reach_every_algorithm_that_has_them_there_and_no_other(tmp_path):
+    raw = base() | {
+        "name": "s",
+        "algorithms": [
+            "random",
+            "ifo",
+            "trpo-ifo",
+            {"algorithm": "trpo-ifo", "label": "own", "disc_lr": 4e-4},
+        ],
+    }
+    plain = {s.trial_id for s in expand(load_suite(write(tmp_path, raw)))}
+    _set(raw, ("envs", PENDULUM, "trpo"), {"n_envs": 16})
+    _set(raw, ("envs", PENDULUM, "hyperparams"), {"disc_lr": 0.01, "steps": 3})
+    specs = expand(load_suite(write(tmp_path, raw, "h.yaml")))
+    for spec in specs:
+        changed = spec.env_id == PENDULUM and spec.algorithm in ("ifo", "trpo-ifo")
+        assert (spec.trial_id not in plain) == changed  # everything else keeps its id
+        if not changed:
+            continue
+        if spec.algorithm == "ifo":  # its own setting; disc_lr is not one of ifo's
+            assert (spec.hyperparams["steps"], spec.hyperparams["lr"]) == (3, 1e-3)
+            assert "disc_lr" not in spec.hyperparams
+        else:  # the env's hyperparams over its trpo settings, under the entry's own
+            want = (4e-4 if spec.label == "own" else 0.01, 16)
+            assert (spec.hyperparams["disc_lr"], spec.hyperparams["n_envs"]) == want
