@@ -54,7 +54,8 @@ class AdversarialConfig(ImitationTRPOConfig):
     disc_lr: float = 3e-4
     """Adam learning rate of the discriminator."""
     disc_steps: int = 5
-    """Discriminator minibatch steps per policy update."""
+    """Discriminator minibatch steps per policy update. A task with few updates in its budget
+    wants more: the suites give InvertedPendulum 25 (README, "D's pace per task")."""
     disc_minibatch: int = 256
     """Policy samples (and as many expert samples) per discriminator step."""
     grad_penalty: float = 10.0
