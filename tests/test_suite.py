@@ -466,16 +466,15 @@ def test_a_pixel_env_marks_its_trials_and_keeps_state_trial_ids(tmp_path):
     assert not {s.trial_id for s in small if s.env_id == PENDULUM} & {s.trial_id for s in pixels}
 
 
+def _learners_with_an_own_variant(**own) -> dict:
+    """A suite of a reference, two learners, and a TRPO learner's variant labelled "own" with
+    its own settings."""
+    variant = {"algorithm": "trpo-ifo", "label": "own", **own}
+    return base() | {"name": "s", "algorithms": ["random", "ifo", "trpo-ifo", variant]}
+
+
 def test_an_envs_trpo_settings_reach_every_trpo_learner_there_and_no_other(tmp_path):
-    raw = base() | {
-        "name": "s",
-        "algorithms": [
-            "random",
-            "ifo",
-            "trpo-ifo",
-            {"algorithm": "trpo-ifo", "label": "own", "n_envs": 4},
-        ],
-    }
+    raw = _learners_with_an_own_variant(n_envs=4)
     plain = {s.trial_id for s in expand(load_suite(write(tmp_path, raw)))}
     _set(raw, ("envs", PENDULUM, "trpo"), {"n_envs": 16, "gamma": 0.995})
     specs = expand(load_suite(write(tmp_path, raw, "t.yaml")))
@@ -493,15 +492,7 @@ def test_an_envs_trpo_settings_reach_every_trpo_learner_there_and_no_other(tmp_p
 
 
 def test_an_envs_hyperparams_reach_every_algorithm_that_has_them_there_and_no_other(tmp_path):
-    raw = base() | {
-        "name": "s",
-        "algorithms": [
-            "random",
-            "ifo",
-            "trpo-ifo",
-            {"algorithm": "trpo-ifo", "label": "own", "disc_lr": 4e-4},
-        ],
-    }
+    raw = _learners_with_an_own_variant(disc_lr=4e-4)
     plain = {s.trial_id for s in expand(load_suite(write(tmp_path, raw)))}
     _set(raw, ("envs", PENDULUM, "trpo"), {"n_envs": 16})
     _set(raw, ("envs", PENDULUM, "hyperparams"), {"disc_lr": 0.01, "steps": 3})
