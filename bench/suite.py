@@ -197,7 +197,7 @@ def _hyperparams(env: EnvSettings, algo: AlgorithmEntry) -> dict[str, Any]:
     to it under its overrides (the env's TRPO settings if it is a TRPO learner, then the env's
     hyperparams that its config has). A fresh dict: specs outlive the suite."""
     algorithm = registry.get(algo.name)
-    from_env = {k: v for k, v in env.hyperparams.items() if k in _field_names(algorithm)}
+    from_env = {k: v for k, v in env.hyperparams.items() if k in _fields(algorithm.config)}
     if env.trpo and issubclass(algorithm.config, TRPOConfig):
         from_env = {**env.trpo, **from_env}
     if not from_env:
@@ -205,8 +205,9 @@ def _hyperparams(env: EnvSettings, algo: AlgorithmEntry) -> dict[str, Any]:
     return _resolve(algorithm, {**from_env, **algo.overrides})
 
 
-def _field_names(algo: registry.Algorithm) -> set[str]:
-    return {f.name for f in dataclasses.fields(algo.config)}
+def _fields(config: type) -> dict[str, dataclasses.Field]:
+    """A config dataclass's fields by name."""
+    return {f.name: f for f in dataclasses.fields(config)}
 
 
 def _resolve(algo: registry.Algorithm, overrides: dict[str, Any]) -> dict[str, Any]:
@@ -413,7 +414,7 @@ def _trpo_settings(raw: Any, key: str) -> dict[str, Any]:
     """An env's TRPOConfig overrides: known fields, values of the default's type."""
     if not isinstance(raw, dict):
         raise _Invalid(key, f"expected a mapping like {{n_envs: 16}}, got {_show(raw)}")
-    fields = {f.name: f for f in dataclasses.fields(TRPOConfig)}
+    fields = _fields(TRPOConfig)
     for name in raw:
         if name not in fields:
             raise _Invalid(
@@ -439,9 +440,7 @@ def _check_env_hyperparams(env: EnvSettings, algorithms: tuple[AlgorithmEntry, .
     """Each of the env's hyperparams is a setting of some algorithm of the suite, of its type:
     a typo would otherwise reach no algorithm and change nothing, silently."""
     key = f"envs.{env.env_id}.hyperparams"
-    configs = [
-        {f.name: f for f in dataclasses.fields(registry.get(a.name).config)} for a in algorithms
-    ]
+    configs = [_fields(registry.get(a.name).config) for a in algorithms]
     for name, value in env.hyperparams.items():
         having = [fields for fields in configs if name in fields]
         if not having:
@@ -566,7 +565,7 @@ def _variants(
     lists where it takes a list (`hidden: [[64, 64], [128, 128]]`); `hidden: [64, 64]` is
     one value. Labels say the values: `gaifo-disc_lr=0.0001`.
     """
-    fields = {f.name: f for f in dataclasses.fields(algo.config)}
+    fields = _fields(algo.config)
     swept = {
         k: v
         for k, v in overrides.items()
@@ -609,7 +608,7 @@ def _check_plain(values: dict, key: str) -> None:
 
 def _check_hyperparams(algo: registry.Algorithm, overrides: dict, key: str) -> None:
     _check_plain(overrides, key)
-    _check_types({f.name: f for f in dataclasses.fields(algo.config)}, overrides, key)
+    _check_types(_fields(algo.config), overrides, key)
     try:
         algo.make_config(overrides)
     except (TypeError, ValueError) as e:
