@@ -39,10 +39,10 @@ def test_adversarial_learners_imitate_inverted_pendulum_from_one_demonstration(t
     runs = df[df.algorithm == learner]
     assert len(runs) == len(SEEDS)
     shown = runs[["seed", "return", "normalized"]]
-    # Measured with this setting, 1 demo: seeds 0-29 all 1.00 for both, on two machines (and
-    # seeds 0-9 at 5, 10 and 25 demos). Another CPU may still move a seed across, so one of six
-    # may miss 0.95; a second, or a median below 0.95, means it broke. Checked on seeds 0-5 and
-    # on the disjoint 10-15 and 20-25.
+    # Measured with this setting, 1 demo: seeds 0-29 all >= 0.95 for both on two machines (all
+    # 1.00 on the second, and seeds 0-9 at 5, 10 and 25 demos too). Another CPU may still move a
+    # seed across, so one of six may miss 0.95; a second, or a median below 0.95, means it
+    # broke. This test passes on seeds 0-5 and on the disjoint 10-15.
     assert runs.normalized.median() >= 0.95, shown
     assert (runs.normalized >= 0.95).sum() >= len(SEEDS) - 1, shown
     assert (runs.env_steps <= 100_000).all()
