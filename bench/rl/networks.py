@@ -140,7 +140,8 @@ class GaussianPolicy(nn.Module):
     """Diagonal Gaussian over actions: mean from a tanh MLP, state-independent log std.
 
     Takes raw observations (vectors, or flat frames given their (C, H, W) shape) and
-    normalizes them with its own `norm`.
+    normalizes them with its own `norm`. From frames, a ConvTrunk (`trunk`) turns them into
+    features first; for vectors `trunk` is the identity.
     """
 
     def __init__(
@@ -151,8 +152,11 @@ class GaussianPolicy(nn.Module):
         log_std: float = -0.5,
     ):
         super().__init__()
+        shape = _shape(obs_shape)
         self.norm = normalizer(obs_shape)
-        self.mean_net = body(obs_shape, hidden, act_dim)
+        self.trunk: nn.Module = ConvTrunk(shape) if len(shape) == 3 else nn.Identity()
+        features = self.trunk.out_dim if len(shape) == 3 else shape[0]
+        self.mean_net = mlp([features, *hidden, act_dim])
         self.log_std = nn.Parameter(torch.full((act_dim,), float(log_std)))
         # Small last layer: initial actions near 0 instead of saturating the bounds.
         with torch.no_grad():
@@ -160,9 +164,19 @@ class GaussianPolicy(nn.Module):
             last.weight.mul_(0.01)
             last.bias.zero_()
 
+    def features(self, obs: torch.Tensor) -> torch.Tensor:
+        """What the mean's MLP reads: normalized states, or the trunk's features of frames."""
+        return self.trunk(self.norm(obs))
+
     def forward(self, obs: torch.Tensor) -> torch.Tensor:
         """Mean action for raw (B, O) observations."""
-        return self.mean_net(self.norm(obs))
+        return self.mean_net(self.features(obs))
+
+    def head_parameters(self) -> list[nn.Parameter]:
+        """The parameters after the trunk (log std and the mean's MLP), in `parameters()` order:
+        what TRPO's natural-gradient step moves (the trunk learns with the value function)."""
+        trunk = {id(p) for p in self.trunk.parameters()}
+        return [p for p in self.parameters() if id(p) not in trunk]
 
     def log_prob(self, mean: torch.Tensor, actions: torch.Tensor) -> torch.Tensor:
         """(B,) log density of `actions` under N(mean, exp(log_std)^2)."""
@@ -175,17 +189,22 @@ class GaussianPolicy(nn.Module):
 
 
 class ValueNet(nn.Module):
-    """V(s) from raw observations, normalized with the policy's statistics."""
+    """V(s) from raw observations, normalized with the policy's statistics. Given the policy's
+    `trunk` (frames), it reads the same features and trains that trunk with its own loss."""
 
     def __init__(
         self,
         norm: RunningNorm | PixelScale,
         obs_shape: ObsShape,
         hidden: tuple[int, ...] = (64, 64),
+        trunk: ConvTrunk | None = None,
     ):
         super().__init__()
         self.norm = norm  # shared, not copied: one set of statistics per learner
-        self.net = body(obs_shape, hidden, 1)
+        if trunk is None:
+            self.net = body(obs_shape, hidden, 1)
+        else:
+            self.net = nn.Sequential(trunk, mlp([trunk.out_dim, *hidden, 1]))
 
     def forward(self, obs: torch.Tensor) -> torch.Tensor:
         return self.net(self.norm(obs)).squeeze(-1)

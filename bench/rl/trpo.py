@@ -17,7 +17,7 @@ import gymnasium as gym
 import numpy as np
 import torch
 
-from bench.rl.networks import GaussianPolicy, ObsShape, RunningNorm, ValueNet
+from bench.rl.networks import ConvTrunk, GaussianPolicy, ObsShape, RunningNorm, ValueNet
 from bench.rl.rollout import Batch, RewardFn, Rewards, VecCollector
 
 
@@ -117,10 +117,6 @@ def conjugate_gradient(
     return x
 
 
-def _flat_params(module: torch.nn.Module) -> list[torch.nn.Parameter]:
-    return [p for p in module.parameters() if p.requires_grad]
-
-
 def policy_step(
     policy: GaussianPolicy,
     obs: torch.Tensor,
@@ -128,19 +124,27 @@ def policy_step(
     adv: torch.Tensor,
     cfg: TRPOConfig,
 ) -> dict[str, float]:
-    """One natural-gradient step on the surrogate advantage inside the KL trust region."""
-    params = _flat_params(policy)
+    """One natural-gradient step on the surrogate advantage inside the KL trust region.
+
+    It moves the policy's head only: from frames, the conv trunk it shares with the value
+    function learns from the value loss (as in PPO's Atari networks), since a trust region
+    of 0.01 nats spread over every conv weight starves the features of learning. The trunk's
+    features are therefore fixed during the step, and computed once.
+    """
+    params = [p for p in policy.head_parameters() if p.requires_grad]
     with torch.no_grad():
-        old_mean = policy(obs)
+        features = policy.features(obs)
+        old_mean = policy.mean_net(features)
         old_log_std = policy.log_std.detach().clone()
         old_logp = policy.log_prob(old_mean, actions)
 
     def surrogate() -> torch.Tensor:
-        return (torch.exp(policy.log_prob(policy(obs), actions) - old_logp) * adv).mean()
+        new_logp = policy.log_prob(policy.mean_net(features), actions)
+        return (torch.exp(new_logp - old_logp) * adv).mean()
 
     def kl(idx: slice = slice(None)) -> torch.Tensor:
         """Mean KL(old || new) of diagonal Gaussians, analytically."""
-        mean = policy(obs[idx])
+        mean = policy.mean_net(features[idx])
         om = old_mean[idx]
         var, old_var = torch.exp(2 * policy.log_std), torch.exp(2 * old_log_std)
         per_dim = policy.log_std - old_log_std + (old_var + (om - mean).square()) / (2 * var) - 0.5
@@ -214,7 +218,8 @@ class TRPO:
         self.policy = GaussianPolicy(obs_shape, act_dim, cfg.hidden, cfg.init_log_std).to(
             self.device
         )
-        self.value = ValueNet(self.policy.norm, obs_shape, cfg.hidden).to(self.device)
+        trunk = self.policy.trunk if isinstance(self.policy.trunk, ConvTrunk) else None
+        self.value = ValueNet(self.policy.norm, obs_shape, cfg.hidden, trunk).to(self.device)
         self.vf_opt = torch.optim.Adam(self.value.net.parameters(), lr=cfg.vf_lr)
         self.gen = torch.Generator().manual_seed(seed + 1)
         self.return_norm = RunningNorm(1)
