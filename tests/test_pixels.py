@@ -1,11 +1,13 @@
 import numpy as np
 import pytest
+import torch
 
 from bench import demos, envs, runner, store
 from bench.experts import load_expert
 from bench.pixels import PixelConfig, VideoBeside
 from bench.rl.networks import GaussianPolicy
 from bench.rl.rollout import VecCollector
+from bench.rl.trpo import TRPO, TRPOConfig, policy_step
 from bench.runner import run_suite
 from bench.suite import expand, load_suite
 from bench.types import Demos
@@ -158,3 +160,29 @@ def test_filmed_batches_carry_each_steps_frames():
             else:  # a new episode starts from its own first frame, repeated
                 first = batch.frames[t + 1, i].reshape(cfg.shape)
                 assert (first == first[:1]).all()
+
+
+def _unchanged(before: list[torch.Tensor], module: torch.nn.Module) -> bool:
+    return all(torch.equal(a, b) for a, b in zip(before, module.parameters(), strict=True))
+
+
+def test_from_frames_the_value_loss_trains_the_trunk_and_trpo_moves_the_head():
+    cfg = PixelConfig(size=32, stack=2)
+    collector = VecCollector([envs.make(PENDULUM, s, cfg) for s in range(2)], 0)
+    learner = TRPO(cfg.shape, 1, TRPOConfig(n_envs=2, steps_per_env=64, vf_epochs=1), seed=0)
+    policy = learner.policy
+    assert learner.value.net[0] is policy.trunk  # one trunk, two heads
+    batch = collector.collect(policy, 64)
+    collector.close()
+    trunk = [p.detach().clone() for p in policy.trunk.parameters()]
+    head = [p.detach().clone() for p in policy.mean_net.parameters()]
+    grads: list[torch.Tensor] = []
+    hooks = [p.register_hook(grads.append) for p in policy.trunk.parameters()]
+    obs, actions = torch.from_numpy(batch.flat("obs")), torch.from_numpy(batch.flat("actions"))
+    info = policy_step(policy, obs, actions, torch.randn(len(obs)), learner.cfg)
+    assert info["step_frac"] > 0 and not grads  # the policy step never reaches the trunk
+    assert _unchanged(trunk, policy.trunk) and not _unchanged(head, policy.mean_net)
+    for hook in hooks:
+        hook.remove()
+    learner.update(batch, batch.rewards)  # ... and the value regression does
+    assert not _unchanged(trunk, policy.trunk)
