@@ -116,8 +116,9 @@ def pool_path(env_id: str, pixels: PixelConfig | None = None) -> Path:
     digest = hashlib.sha256((paths.expert_dir(env_id) / "policy.pt").read_bytes()).hexdigest()[:12]
     video = ""
     if pixels is not None:  # and where the camera stood: a moved camera films another video
-        view = "-".join(f"{x:g}" for x in camera(env_id) or ())
-        video = f"-frames{pixels.size}{'g' if pixels.grayscale else 'rgb'}{view and '-cam' + view}"
+        view = camera(env_id)
+        cam = "" if view is None else f"-cam{view.key()}"
+        video = f"-frames{pixels.size}{'g' if pixels.grayscale else 'rgb'}{cam}"
     return paths.CACHE_DIR / "demos" / f"{env_id}-{digest}-{FORMAT}{video}.npz"
 
 
