@@ -5,12 +5,10 @@ MLP embeds state vectors (a small CNN embeds frames, in a suite env with `observ
 single-view (positives and negatives come from the same demonstration).
 
 1. Embedding: unit-length MLP features of demonstration states, trained with a triplet loss:
-   a positive lies within `pos_window` steps of its anchor, a negative at least `neg_margin` away
-   (and with `stride_negatives`, not at the anchor's phase of a repeated motion).
+   a positive lies within `pos_window` steps of its anchor, a negative at least `neg_margin` away.
 2. Reward: r_t = -a ||e - d||^2 - b sqrt(c + ||e - d||^2) (+ an offset, below), where e embeds the
    agent's s_{t+1} and d is the mean embedding of the demonstrations' states at step t + 1
-   (a finished demonstration holds its last state), or with `target="nearest"` the closest
-   single demonstration's embedding there. We compare s_{t+1}, the state the action
+   (a finished demonstration holds its last state). We compare s_{t+1}, the state the action
    at step t produced, so the reward reaches the action that earned it rather than one step late.
 3. The policy: the shared TRPO (bench/rl/trpo.py) on that reward; the embedding stays fixed.
 
@@ -26,7 +24,6 @@ learns noise: under an embedding of one pendulum demo, other expert episodes sco
 
 from __future__ import annotations
 
-from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -72,25 +69,12 @@ class TCNConfig(TRPOConfig):
     nonnegative_reward: bool = True
     """Add the largest penalty, a*4 + b*sqrt(c + 4) (unit embeddings: ||e - d||^2 <= 4), so no
     reward is negative and ending early does not pay (see the module docstring)."""
-    target: str = "mean"
-    """What the agent's embedding at step t + 1 is compared with: "mean", the demonstrations'
-    mean embedding at that step; "nearest", the closest single demonstration's. Sermanet et al.
-    track one demonstration: demos of a gait drift out of phase, and their mean is no gait."""
-    stride_negatives: bool = False
-    """Where the demos repeat a motion (a gait; its stride found by `stride`), skip negatives
-    that lie within a quarter stride of a whole number of strides from their anchor: those
-    show the anchor's own phase one or more strides later, and are no negatives at all."""
 
     def __post_init__(self) -> None:
         super().__post_init__()
         self.embed_hidden = tuple(self.embed_hidden)
         if not 1 <= self.pos_window < self.neg_margin:
             raise ValueError("need 1 <= pos_window < neg_margin")
-        if self.target not in TARGETS:
-            raise ValueError(f"target must be one of {', '.join(TARGETS)}, not {self.target!r}")
-
-
-TARGETS = ("mean", "nearest")
 
 
 class Embedding(nn.Module):
@@ -111,56 +95,12 @@ def n_negatives(t: np.ndarray, L: np.ndarray, margin: int) -> np.ndarray:
     return np.maximum(t - margin + 1, 0) + np.maximum(L - t - margin, 0)
 
 
-def stride(observations: Sequence[np.ndarray], max_lag: int = 200) -> int | None:
-    """Steps after which the demonstrations repeat their motion, or None where they do not.
-
-    The first peak (>= 0.5) of the states' autocorrelation (standardized per dimension, averaged
-    over demos) after it has turned negative: a gait swings away from a pose and back to it. A
-    balanced pendulum's autocorrelation only decays, so it has no stride.
-    """
-    states = np.concatenate(observations)
-    mean, std = states.mean(0), states.std(0) + 1e-8
-    curves = []
-    for obs in observations:
-        x = (obs - mean) / std
-        x = x - x.mean(0)
-        var = np.mean(np.sum(x * x, 1))
-        lags = min(max_lag, len(x) // 2)
-        if var > 0 and lags > 2:
-            ac = [np.mean(np.sum(x[:-k] * x[k:], 1)) / var for k in range(1, lags + 1)]
-            curves.append(np.pad(ac, (1, max_lag - lags), constant_values=np.nan))
-    if not curves:
-        return None
-    counts = np.sum(~np.isnan(curves), 0)
-    ac = np.where(counts > 0, np.nansum(curves, 0) / np.maximum(counts, 1), np.nan)
-    swung_away = False
-    for k in range(2, max_lag):
-        swung_away |= bool(ac[k] < 0)
-        if swung_away and ac[k] >= 0.5 and ac[k] >= ac[k - 1] and ac[k] > ac[k + 1]:
-            return k
-    return None
-
-
-def same_phase(gap: np.ndarray, period: int | None) -> np.ndarray:
-    """Which step gaps (>= 1) lie within a quarter stride of a whole number of strides."""
-    if period is None:
-        return np.zeros(gap.shape, bool)
-    phase = gap % period
-    return np.minimum(phase, period - phase) < period / 4
-
-
 def sample_triplets(
-    lengths: np.ndarray,
-    n: int,
-    cfg: TCNConfig,
-    rng: np.random.Generator,
-    period: int | None = None,
+    lengths: np.ndarray, n: int, cfg: TCNConfig, rng: np.random.Generator
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """n (episode, anchor, positive, negative) index arrays; steps index an episode's rows.
 
     Episodes are drawn in proportion to the anchors they offer (rows with a valid negative).
-    Given the demos' stride `period`, negatives at the anchor's own phase are drawn again (an
-    anchor whose every negative is, in a short episode, keeps its last draw).
     """
     m = cfg.neg_margin
     usable = np.array([np.sum(n_negatives(np.arange(L), L, m) > 0) for L in lengths], dtype=float)
@@ -173,15 +113,8 @@ def sample_triplets(
     positive = np.clip(anchor + offset, 0, L - 1)
     positive[positive == anchor] = np.clip(anchor - offset, 0, L - 1)[positive == anchor]
     left = np.maximum(anchor - m + 1, 0)  # negatives are 0..left-1, then anchor+m onwards
-    negative = np.empty(n, np.int64)
-    redraw = np.ones(n, bool)
-    for _ in range(100):
-        k = (rng.random(redraw.sum()) * n_negatives(anchor[redraw], L[redraw], m)).astype(np.int64)
-        a, lft = anchor[redraw], left[redraw]
-        negative[redraw] = np.where(k < lft, k, a + m + (k - lft))
-        redraw &= same_phase(np.abs(negative - anchor), period)
-        if not redraw.any():
-            break
+    k = (rng.random(n) * n_negatives(anchor, L, m)).astype(np.int64)
+    negative = np.where(k < left, k, anchor + m + (k - left))
     return ep, anchor, positive, negative
 
 
@@ -195,10 +128,9 @@ def train_embedding(embed: Embedding, demos: Demos, cfg: TCNConfig, seed: int) -
     states = torch.from_numpy(np.concatenate(demos.observations))
     opt = torch.optim.Adam(embed.net.parameters(), lr=cfg.embed_lr)
     rng = np.random.default_rng(seed)
-    period = stride(demos.observations) if cfg.stride_negatives else None
     loss, active = torch.zeros(()), torch.zeros(())
     for _ in range(cfg.embed_steps):
-        ep, a, p, n = sample_triplets(lengths, cfg.embed_minibatch, cfg, rng, period)
+        ep, a, p, n = sample_triplets(lengths, cfg.embed_minibatch, cfg, rng)
         e = embed(states[torch.from_numpy(np.concatenate([a, p, n]) + np.tile(offsets[ep], 3))])
         ea, ep_, en = e.chunk(3)
         hinge = (ea - ep_).square().sum(1) - (ea - en).square().sum(1) + cfg.triplet_margin
@@ -207,25 +139,15 @@ def train_embedding(embed: Embedding, demos: Demos, cfg: TCNConfig, seed: int) -
         opt.zero_grad()
         loss.backward()
         opt.step()
-    return {"triplet_loss": loss.item(), "triplet_active": active.item(), "stride": period or 0}
+    return {"triplet_loss": loss.item(), "triplet_active": active.item()}
 
 
 @torch.no_grad()
 def demo_targets(embed: Embedding, demos: Demos) -> torch.Tensor:
-    """(N demos, max_i T_i + 1, D): each demonstration's embedding at each step, its last state
-    held once it has ended."""
+    """(max_i T_i + 1, D): mean embedding of the demonstrations at each step, last state held."""
     horizon = max(len(o) for o in demos.observations)
     held = [np.concatenate([o, np.repeat(o[-1:], horizon - len(o), 0)]) for o in demos.observations]
-    return embed(torch.from_numpy(np.concatenate(held))).reshape(len(held), horizon, -1)
-
-
-def target_distance(
-    e: torch.Tensor, targets: torch.Tensor, t: torch.Tensor, how: str
-) -> torch.Tensor:
-    """Squared distance of embeddings e (B, D) at steps t (B,) to their targets (`TCNConfig.target`)."""
-    if how == "mean":
-        return (e - targets.mean(0)[t]).square().sum(1)
-    return (e[None] - targets[:, t]).square().sum(2).min(0).values
+    return embed(torch.from_numpy(np.concatenate(held))).reshape(len(held), horizon, -1).mean(0)
 
 
 @register(
@@ -253,8 +175,8 @@ def train(
     @torch.no_grad()
     def reward_fn(batch: Batch) -> np.ndarray:
         e = embed(torch.from_numpy(batch.flat(judged)))
-        t = torch.from_numpy(batch.flat("timesteps") + 1).clamp_max(targets.shape[1] - 1)
-        dist2 = target_distance(e, targets, t, cfg.target)
+        t = torch.from_numpy(batch.flat("timesteps") + 1).clamp_max(len(targets) - 1)
+        dist2 = (e - targets[t]).square().sum(1)
         stats["embed_dist2"] = dist2.mean().item()
         r = offset - a * dist2 - b * torch.sqrt(c + dist2)
         return r.numpy().reshape(batch.rewards.shape)
