@@ -15,7 +15,6 @@ from dataclasses import dataclass
 
 import gymnasium as gym
 import numpy as np
-import pybullet
 
 LUMA = np.array([0.299, 0.587, 0.114], np.float32)
 """ITU-R BT.601 weights, the grayscale conversion of the Atari preprocessing convention."""
@@ -142,7 +141,7 @@ class Frames(gym.Wrapper):
             self.cfg.size,
             view,
             projection,
-            renderer=pybullet.ER_BULLET_HARDWARE_OPENGL,
+            renderer=base._p.ER_BULLET_HARDWARE_OPENGL,
         )
         return np.reshape(np.asarray(px, np.uint8), (height, width, -1))
 
