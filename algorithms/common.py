@@ -75,7 +75,8 @@ def report_each_update(
 
     def on_update(steps: int, learner: TRPO, batch: Batch, info: dict[str, float]) -> None:
         noise = learner.policy.log_std.detach().exp().mean().item()
-        logger.log(steps, **(stats or {}), kl=info["kl"], policy_std=noise)
+        trunk = {"trunk_kl": info["trunk_kl"]} if "trunk_kl" in info else {}  # frames only
+        logger.log(steps, **(stats or {}), kl=info["kl"], **trunk, policy_std=noise)
         if average is None:
             logger.checkpoint(steps, deterministic(learner, task))
         else:

@@ -184,5 +184,6 @@ def test_from_frames_the_value_loss_trains_the_trunk_and_trpo_moves_the_head():
     assert _unchanged(trunk, policy.trunk) and not _unchanged(head, policy.mean_net)
     for hook in hooks:
         hook.remove()
-    learner.update(batch, batch.rewards)  # ... and the value regression does
+    info = learner.update(batch, batch.rewards)  # ... and the value regression does,
     assert not _unchanged(trunk, policy.trunk)
+    assert 0 <= info["trunk_kl"] < learner.cfg.max_kl  # paying for how far it moves the policy

@@ -182,6 +182,18 @@ def policy_step(
     return {"kl": 0.0, "improvement": 0.0, "expected": expected, "step_frac": 0.0}
 
 
+CLONE_WEIGHT = 1.0
+"""Weight of the policy-keeping KL in the value loss when the two share a trunk (Phasic Policy
+Gradient's behavioural-cloning weight, beta_clone = 1)."""
+
+
+def mean_kl(policy: GaussianPolicy, old_mean: torch.Tensor, mean: torch.Tensor) -> torch.Tensor:
+    """Mean KL(old || new) between two Gaussians of the same std that differ in their means."""
+    return (
+        ((mean - old_mean).square() / (2 * torch.exp(2 * policy.log_std.detach()))).sum(-1).mean()
+    )
+
+
 def value_step(
     value: ValueNet,
     opt: torch.optim.Optimizer,
@@ -189,7 +201,11 @@ def value_step(
     targets: torch.Tensor,
     cfg: TRPOConfig,
     gen: torch.Generator,
+    keep: tuple[GaussianPolicy, torch.Tensor] | None = None,
 ) -> float:
+    """Value regression. With `keep` = (policy, its mean actions on `obs`), for a policy that
+    shares the value's trunk: the trunk then also pays the KL by which it would move the policy,
+    so value learning does not change the policy outside TRPO's trust region."""
     n = obs.shape[0]
     loss = torch.zeros(())
     for _ in range(cfg.vf_epochs):
@@ -197,6 +213,9 @@ def value_step(
         for start in range(0, n, cfg.vf_minibatch):
             idx = perm[start : start + cfg.vf_minibatch]
             loss = (value(obs[idx]) - targets[idx]).square().mean()
+            if keep is not None:
+                policy, old_mean = keep
+                loss = loss + CLONE_WEIGHT * mean_kl(policy, old_mean[idx], policy(obs[idx]))
             opt.zero_grad()
             loss.backward()
             opt.step()
@@ -219,6 +238,7 @@ class TRPO:
             self.device
         )
         trunk = self.policy.trunk if isinstance(self.policy.trunk, ConvTrunk) else None
+        self.shared_trunk = trunk is not None
         self.value = ValueNet(self.policy.norm, obs_shape, cfg.hidden, trunk).to(self.device)
         self.vf_opt = torch.optim.Adam(self.value.net.parameters(), lr=cfg.vf_lr)
         self.gen = torch.Generator().manual_seed(seed + 1)
@@ -300,6 +320,10 @@ class TRPO:
         adv_t = (adv_t - adv_t.mean()) / (adv_t.std() + 1e-8)
         actions = torch.from_numpy(batch.flat("actions")).to(self.device)
         info = policy_step(self.policy, obs, actions, adv_t, cfg)
+        keep = None
+        if self.shared_trunk:
+            with torch.no_grad():
+                keep = (self.policy, self.policy(obs))
         info["vf_loss"] = value_step(
             self.value,
             self.vf_opt,
@@ -307,7 +331,11 @@ class TRPO:
             torch.from_numpy(targets.reshape(-1)).to(self.device),
             cfg,
             self.gen,
+            keep,
         )
+        if keep is not None:  # how far the trunk's value learning moved the policy after all
+            with torch.no_grad():
+                info["trunk_kl"] = mean_kl(self.policy, keep[1], self.policy(obs)).item()
         return info
 
 
