@@ -127,12 +127,15 @@ class ConvTrunk(nn.Module):
         return self.net(x)
 
 
-def body(obs_shape: ObsShape, hidden: tuple[int, ...], out_dim: int) -> nn.Sequential:
-    """A tanh MLP on normalized observations; for frames, a ConvTrunk in front of it."""
+def body(
+    obs_shape: ObsShape, hidden: tuple[int, ...], out_dim: int, trunk: ConvTrunk | None = None
+) -> nn.Sequential:
+    """A tanh MLP on normalized observations; for frames, a ConvTrunk in front of it (`trunk`,
+    to share one that exists, else a new one)."""
     shape = _shape(obs_shape)
     if len(shape) == 1:
         return mlp([shape[0], *hidden, out_dim])
-    trunk = ConvTrunk(shape)
+    trunk = trunk or ConvTrunk(shape)
     return nn.Sequential(trunk, mlp([trunk.out_dim, *hidden, out_dim]))
 
 
@@ -201,10 +204,7 @@ class ValueNet(nn.Module):
     ):
         super().__init__()
         self.norm = norm  # shared, not copied: one set of statistics per learner
-        if trunk is None:
-            self.net = body(obs_shape, hidden, 1)
-        else:
-            self.net = nn.Sequential(trunk, mlp([trunk.out_dim, *hidden, 1]))
+        self.net = body(obs_shape, hidden, 1, trunk)
 
     def forward(self, obs: torch.Tensor) -> torch.Tensor:
         return self.net(self.norm(obs)).squeeze(-1)
