@@ -2,14 +2,14 @@
 
 Per demonstration count, the learners' normalized scores are pooled across envs
 and summarized with rliable (mean, median and IQM with 95% stratified-bootstrap
-CIs; probability of improvement of GAIfO over each other learner; performance
-profiles), and their learning curves are drawn as IQM over seeds with a 95% CI
-band. Random and expert are the references (0 and 1), not competitors; learners
+CIs; probability of improvement of GAIfO over each other learner, and of each
+learner over the survival control; performance profiles), then the same env by
+env, and their learning curves are drawn as IQM over seeds with a 95% CI band. Random and expert are the references (0 and 1), not competitors; learners
 that take no demonstrations (e.g. survival) compete at every count as controls.
 
 Written beside `report.md`: figure2, profile_<n>demos and curves_<n>demos as
-.png and .pdf, and the numbers of the tables as aggregates.csv, improvement.csv and
-state_match.csv (distance of the learners' states from the expert's, `bench.state_match`).
+.png and .pdf, and the numbers of the tables as aggregates.csv, improvement.csv,
+per_env.csv and state_match.csv (distance of the learners' states from the expert's, `bench.state_match`).
 Nothing here trains or evaluates: it reads records and writes files.
 """
 
@@ -44,6 +44,22 @@ STATE_MATCH_COLUMNS = [
 ]
 TARGET = "gaifo"
 """The algorithm whose probability of improvement over the others is reported."""
+CONTROL = "survival"
+"""The no-demonstration control every other learner is also compared with."""
+PER_ENV_CSV = "per_env.csv"
+PER_ENV_COLUMNS = [
+    "n_demos",
+    "env_id",
+    "statistic",
+    "algorithm",
+    "other",
+    "seeds",
+    "estimate",
+    "lo",
+    "hi",
+]
+POOLED = "pooled"
+"""env_id of per_env.csv's rows over every env (aggregates.csv's and improvement.csv's numbers)."""
 TAUS = 81
 """Score thresholds in a performance profile."""
 AGGREGATE_COLUMNS = ["n_demos", "algorithm", "seeds", "envs", "metric", "estimate", "lo", "hi"]
@@ -105,7 +121,7 @@ def write_report(results_dir: Path, out_dir: Path | None = None, reps: int = 200
     learners = plot.algorithm_order(df["algorithm"].unique())
     if learners:
         plot.figure2(df, out_dir / "figure2")
-        per_env = (
+        figure_section = (
             "## Normalized return per env\n\n"
             "![Normalized return per env against number of demonstrations](figure2.png)\n\n"
             "Mean ± standard deviation over seeds, as in the figure.\n\n"
@@ -113,18 +129,25 @@ def write_report(results_dir: Path, out_dir: Path | None = None, reps: int = 200
             + plot.summary_table(df).replace(plot.ACTIONS_FOOTNOTE, "\\" + plot.ACTIONS_FOOTNOTE)
         )
     else:
-        per_env = "No learning algorithm was run: only the random and expert references."
+        figure_section = "No learning algorithm was run: only the random and expert references."
 
     try:
         curves: pd.DataFrame | str = load_iqm_curves(results_dir, trials, reps)
     except ValueError as e:  # several curves per seed and step: records of more than one run
         curves = str(e)
     per_count = [_demo_section(df, curves, n, out_dir, reps) for n in demo_counts(df)]
+    by_env = [
+        _per_env_section(df, n, aggregate, improvement, reps, starred)
+        for n, (_, aggregate, improvement) in zip(demo_counts(df), per_count, strict=True)
+    ]
     matched = [_state_match_section(df, n, reps, starred) for n in demo_counts(df)]
     aggregates = _concat([aggregate for _, aggregate, _ in per_count], AGGREGATE_COLUMNS)
     improvements = _concat([improvement for _, _, improvement in per_count], IMPROVEMENT_COLUMNS)
     aggregates.to_csv(out_dir / AGGREGATES_CSV, index=False)
     improvements.to_csv(out_dir / IMPROVEMENT_CSV, index=False)
+    _concat([rows for _, rows in by_env], PER_ENV_COLUMNS).to_csv(
+        out_dir / PER_ENV_CSV, index=False
+    )
     _concat([rows for _, rows in matched], STATE_MATCH_COLUMNS).to_csv(
         out_dir / STATE_MATCH_CSV, index=False
     )
@@ -133,8 +156,9 @@ def write_report(results_dir: Path, out_dir: Path | None = None, reps: int = 200
         _header(df, results_dir),
         _how_to_read(learners, reps, starred),
         _at_a_glance(aggregates, improvements, starred),
-        per_env,
+        figure_section,
         *(text for text, _, _ in per_count),
+        *(text for text, _ in by_env),
         *(text for text, _ in matched),
         _references(df),
         _costs(df),
@@ -178,6 +202,16 @@ def competitors(df: pd.DataFrame, n_demos: int) -> list[str]:
     return plot.algorithm_order(set(learners.loc[here | demo_free(learners), "algorithm"]))
 
 
+def improvement_pairs(names: Collection[str]) -> list[tuple[str, str]]:
+    """The (a, b) whose P(a > b) a report gives: GAIfO against every other learner, then every
+    other learner against the survival control (did it learn from the demonstrations at all?)."""
+    ordered = _in_order(pd.Series(list(names), dtype=object))
+    pairs = [(TARGET, other) for other in ordered if other != TARGET] if TARGET in names else []
+    if CONTROL in names:
+        pairs += [(a, CONTROL) for a in ordered if a not in (TARGET, CONTROL)]
+    return pairs
+
+
 def load_iqm_curves(results_dir: Path, trials: pd.DataFrame, reps: int = 2000) -> pd.DataFrame:
     """`iqm_curves` of the learners' recorded curves, normalized with `trials`' references."""
     curves = store.load_curves(results_dir)
@@ -208,22 +242,19 @@ def aggregate_table(aggregates: pd.DataFrame, action_users: Collection[str] = ()
 
 
 def improvement_table(improvement: pd.DataFrame, action_users: Collection[str] = ()) -> str:
-    """Markdown: P(target > other) [95% CI], a row per other algorithm."""
-    target = plot.algorithm_label(improvement["algorithm"].iloc[0], action_users)
-    header = [f"{target} vs", f"P({target} > other) [95% CI]"]
-    lines = [_row(header), "|---|---|"]
-    rows = improvement.set_index("other")
-    for other in _in_order(improvement["other"]):
-        r = rows.loc[other]
+    """Markdown: P(a > b) [95% CI], a row per (algorithm, other) pair of `improvement`."""
+    lines = [_row(["comparison", "P(improvement) [95% CI]"]), "|---|---|"]
+    for r in improvement.itertuples():
         lines.append(
             _row(
-                [
-                    plot.algorithm_label(other, action_users),
-                    _interval(r["estimate"], r["lo"], r["hi"]),
-                ]
+                [_pair_label(r.algorithm, r.other, action_users), _interval(r.estimate, r.lo, r.hi)]
             )
         )
     return "\n".join(lines) + "\n"
+
+
+def _pair_label(a: str, b: str, action_users: Collection[str]) -> str:
+    return f"{plot.algorithm_label(a, action_users)} > {plot.algorithm_label(b, action_users)}"
 
 
 def compare_table(
@@ -369,17 +400,17 @@ def _at_a_glance(
         ]
         lines.append(_row([plot.algorithm_label(a, action_users), *cells]))
     if len(improvement):
-        target = plot.algorithm_label(improvement["algorithm"].iloc[0], action_users)
-        pi = improvement.set_index(["other", "n_demos"])
-        lines += ["", _row([f"P({target} > other) [95% CI]", *columns]), rule]
-        for other in _in_order(improvement["other"]):
+        pi = improvement.set_index(["algorithm", "other", "n_demos"])
+        lines += ["", _row(["P(improvement) [95% CI]", *columns]), rule]
+        pairs = dict.fromkeys(zip(improvement["algorithm"], improvement["other"], strict=True))
+        for a, b in pairs:
             cells = [
-                _interval(*pi.loc[(other, n), ["estimate", "lo", "hi"]])
-                if (other, n) in pi.index
+                _interval(*pi.loc[(a, b, n), ["estimate", "lo", "hi"]])
+                if (a, b, n) in pi.index
                 else ""
                 for n in counts
             ]
-            lines.append(_row([f"vs {plot.algorithm_label(other, action_users)}", *cells]))
+            lines.append(_row([_pair_label(a, b, action_users), *cells]))
     return "\n".join(lines)
 
 
@@ -480,16 +511,16 @@ def _demo_section(
         parts.append("### Probability of improvement")
         if TARGET not in scores:
             parts.append(
-                f"{plot.algorithm_label(TARGET, starred)} has no scores with {title.lower()}: "
-                "no probability of improvement to report."
+                f"{plot.algorithm_label(TARGET, starred)} has no scores with {title.lower()}."
             )
-        elif len(scores) == 1:
-            parts.append(
-                f"{plot.algorithm_label(TARGET, starred)} is the only learner here: nothing to compare."
-            )
-        else:
-            improvement = stats.probability_of_improvement(scores, TARGET, reps=reps)
+        pairs = improvement_pairs(scores)
+        if pairs:
+            improvement = stats.improvement_of_pairs(scores, pairs, reps=reps)
             parts.append(improvement_table(improvement, starred))
+        else:
+            parts.append(
+                "Nothing to compare: no second learner to set against GAIfO or the control."
+            )
 
         everything = np.concatenate([s.ravel() for s in scores.values()])
         taus = np.linspace(min(0.0, everything.min()), max(1.0, everything.max()), TAUS)
@@ -516,6 +547,109 @@ def _demo_section(
         aggregate.assign(n_demos=n) if len(aggregate) else aggregate,
         improvement.assign(n_demos=n) if len(improvement) else improvement,
     )
+
+
+def _per_env_section(
+    df: pd.DataFrame,
+    n: int,
+    pooled_aggregate: pd.DataFrame,
+    pooled_improvement: pd.DataFrame,
+    reps: int,
+    starred: Collection[str],
+) -> tuple[str, pd.DataFrame]:
+    """Markdown with each learner's IQM and the probabilities of improvement env by env at `n`
+    demos, beside their pooled values; and its rows (PER_ENV_COLUMNS).
+
+    Each env keeps every seed it has, where pooling keeps only the seeds every env has, so a
+    domain still running is read from all of its finished seeds.
+    """
+    rows = []
+    envs = []
+    for env_id in plot.env_order(df["env_id"].unique()):
+        here = df[df["env_id"] == env_id]
+        names = [a for a in competitors(df, n) if a in set(_at_count(here, n)["algorithm"])]
+        if not names:
+            continue
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # seeds left out are said in the pooled sections
+            scores = stats.score_dict(here, n, algorithms=names)
+        envs.append(env_id)
+        iqm = stats.aggregate_scores(scores, reps=reps)
+        for r in iqm[iqm["metric"] == "iqm"].itertuples():
+            rows.append(
+                (
+                    n,
+                    env_id,
+                    "iqm",
+                    r.algorithm,
+                    "",
+                    len(scores[r.algorithm]),
+                    r.estimate,
+                    r.lo,
+                    r.hi,
+                )
+            )
+        pairs = improvement_pairs(scores)
+        for r in stats.improvement_of_pairs(scores, pairs, reps=reps).itertuples():
+            seeds = min(len(scores[r.algorithm]), len(scores[r.other]))
+            rows.append(
+                (n, env_id, "p_improvement", r.algorithm, r.other, seeds, r.estimate, r.lo, r.hi)
+            )
+    if not envs:
+        return "", pd.DataFrame(columns=PER_ENV_COLUMNS)
+    if len(pooled_aggregate):
+        for r in pooled_aggregate[pooled_aggregate["metric"] == "iqm"].itertuples():
+            rows.append((n, POOLED, "iqm", r.algorithm, "", r.seeds, r.estimate, r.lo, r.hi))
+    for r in pooled_improvement.itertuples():
+        rows.append((n, POOLED, "p_improvement", r.algorithm, r.other, "", r.estimate, r.lo, r.hi))
+    frame = pd.DataFrame(rows, columns=PER_ENV_COLUMNS)
+
+    columns = [*envs, POOLED] if len(envs) > 1 else envs
+    iqm = frame[frame["statistic"] == "iqm"]
+    improved = frame[frame["statistic"] == "p_improvement"]
+    lines = [
+        f"## Per env, {_demos_title(n).lower()}",
+        "Each env's IQM over its seeds and the probabilities of improvement on that env alone"
+        " (every seed an env has; the pooled column keeps the seeds every env has, as above).",
+        _env_table(
+            iqm,
+            "IQM [95% CI] (seeds)",
+            {plot.algorithm_label(a, starred): (a, "") for a in _in_order(iqm["algorithm"])},
+            columns,
+        ),
+    ]
+    if len(improved):
+        pairs = dict.fromkeys(zip(improved["algorithm"], improved["other"], strict=True))
+        labels = {_pair_label(a, b, starred): (a, b) for a, b in pairs}
+        lines.append(_env_table(improved, "P(improvement) [95% CI]", labels, columns))
+    return "\n\n".join(lines), frame
+
+
+def _env_table(
+    rows: pd.DataFrame, title: str, keys: dict[str, tuple[str, str]], columns: list[str]
+) -> str:
+    """Markdown: a row per label of `keys` (its algorithm and other), a column per env id of
+    `columns`, each cell `estimate [lo, hi]` (and the seed count of an env's IQM)."""
+    cells = rows.set_index(["algorithm", "other", "env_id"])
+    header = [title, *(e if e == POOLED else plot.env_label(e) for e in columns)]
+    lines = [_row(header), "|" + "---|" * len(header)]
+    for label, (a, b) in keys.items():
+        values = []
+        for env_id in columns:
+            if (a, b, env_id) not in cells.index:
+                values.append("")
+                continue
+            r = cells.loc[(a, b, env_id)]
+            seeds = f" ({r['seeds']})" if not b and env_id != POOLED else ""
+            values.append(_interval(r["estimate"], r["lo"], r["hi"]) + seeds)
+        lines.append(_row([label, *values]))
+    return "\n".join(lines)
+
+
+def _at_count(df: pd.DataFrame, n: int) -> pd.DataFrame:
+    """The learners' rows that compete at `n` demos: those run with `n`, and the controls."""
+    learners = df[~df["algorithm"].isin(REFERENCES)]
+    return learners[(learners["n_demos"] == n) | demo_free(learners)]
 
 
 def _state_match_section(

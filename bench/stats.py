@@ -152,23 +152,45 @@ def probability_of_improvement(
     """P(target > other), averaged over envs, for each other algorithm: algorithm, other, estimate, lo, hi."""
     if target not in scores:
         raise ValueError(f"{target!r} not among the algorithms ({', '.join(scores)})")
-    pairs = {other: (scores[target], s) for other, s in scores.items() if other != target}
+    pairs = [(target, other) for other in scores if other != target]
+    return improvement_of_pairs(scores, pairs, reps, seed)
+
+
+IMPROVEMENT_COLUMNS = ["algorithm", "other", "estimate", "lo", "hi"]
+
+
+def improvement_of_pairs(
+    scores: dict[str, np.ndarray],
+    pairs: Sequence[tuple[str, str]],
+    reps: int = 2000,
+    seed: int = 0,
+) -> pd.DataFrame:
+    """P(a > b), averaged over envs, for each (a, b) in `pairs`: algorithm (a), other (b),
+    estimate, lo, hi."""
+    unknown = sorted({name for pair in pairs for name in pair} - set(scores))
+    if unknown:
+        raise ValueError(
+            f"{', '.join(map(repr, unknown))} not among the algorithms ({', '.join(scores)})"
+        )
+    if not pairs:
+        return pd.DataFrame(columns=IMPROVEMENT_COLUMNS)
+    keyed = {f"{a} > {b}": (scores[a], scores[b]) for a, b in pairs}
     with _seeded(seed):
         points, intervals = rly.get_interval_estimates(
-            pairs, metrics.probability_of_improvement, reps=reps
+            keyed, metrics.probability_of_improvement, reps=reps
         )
     return pd.DataFrame(
         [
             {
-                "algorithm": target,
-                "other": other,
-                "estimate": float(np.squeeze(points[other])),
-                "lo": float(np.squeeze(intervals[other][0])),
-                "hi": float(np.squeeze(intervals[other][1])),
+                "algorithm": a,
+                "other": b,
+                "estimate": float(np.squeeze(points[key])),
+                "lo": float(np.squeeze(intervals[key][0])),
+                "hi": float(np.squeeze(intervals[key][1])),
             }
-            for other in pairs
+            for key, (a, b) in zip(keyed, pairs, strict=True)
         ],
-        columns=["algorithm", "other", "estimate", "lo", "hi"],
+        columns=IMPROVEMENT_COLUMNS,
     )
 
 

@@ -85,7 +85,11 @@ def test_report_has_every_table_and_figure(written):
         "## Reference returns",
         "| algorithm | runs (seeds × envs) | mean [95% CI] | median [95% CI] | IQM [95% CI] |",
         "### Probability of improvement",
-        "| GAIfO vs | P(GAIfO > other) [95% CI] |",
+        "| comparison | P(improvement) [95% CI] |",
+        "| GAIfO > GAIL* | 1.00 [1.00, 1.00] |",
+        "| GAIL* > Survival | 1.00 [1.00, 1.00] |",
+        "## Per env, 5 demonstrations",
+        "| IQM [95% CI] (seeds) | InvertedPendulum | Hopper | pooled |",
         "## 1 demonstration",
         "## 5 demonstrations",
         "![Performance profile, 5 demonstrations](profile_5demos.png)",
@@ -122,6 +126,39 @@ def test_report_numbers(written):
     assert (improvement["estimate"] > 0.5).all()
     # the raw references, mean ± std over the 4 seeds
     assert "| Hopper | -5.0 ± 28.9 (4 seeds) | 2500.0 ± 28.9 (4 seeds) |" in written.read_text()
+
+
+def test_per_env_statistics_keep_every_seed_an_env_has(tmp_path):
+    """Hopper has two more GAIfO seeds than the pendulum: pooling drops them, its own column not."""
+    results = write_suite(tmp_path / "synthetic", demos=[5])
+    hopper = list(ENVS)[1]
+    for seed in (4, 5):
+        store.write(results, trial(hopper, "gaifo", 5, seed))
+    report.write_report(results, reps=REPS)
+    rows = pd.read_csv(results / "report" / "per_env.csv")
+    iqm = rows[rows["statistic"] == "iqm"].set_index(["env_id", "algorithm"])
+    # gaifo on Hopper: 0.7 + 0.05 seed for seeds 0-5; the middle half is seeds 2, 3 (and halves of 1, 4)
+    assert iqm.loc[(hopper, "gaifo"), "seeds"] == 6
+    assert iqm.loc[(hopper, "gaifo"), "estimate"] == pytest.approx(0.7 + 0.05 * 2.5)
+    assert iqm.loc[(report.POOLED, "gaifo"), "estimate"] == pytest.approx(0.7 + 0.05 * 1.5)
+    improved = rows[rows["statistic"] == "p_improvement"].set_index(
+        ["env_id", "algorithm", "other"]
+    )
+    for env_id in (*ENVS, report.POOLED):  # every gail run beats every survival run, on each env
+        assert improved.loc[(env_id, "gail", "survival"), "estimate"] == 1.0
+        assert improved.loc[(env_id, "gaifo", "gail"), "estimate"] == 1.0
+
+
+def test_improvement_pairs_set_gaifo_against_all_and_all_against_the_control():
+    assert report.improvement_pairs(["survival", "bco", "gaifo", "gail"]) == [
+        ("gaifo", "gail"),
+        ("gaifo", "bco"),
+        ("gaifo", "survival"),
+        ("gail", "survival"),
+        ("bco", "survival"),
+    ]
+    assert report.improvement_pairs(["gail", "survival"]) == [("gail", "survival")]
+    assert report.improvement_pairs(["gail", "bco"]) == []
 
 
 def test_distance_to_the_expert_states(written):
@@ -218,7 +255,7 @@ def test_cli_writes_a_report_per_suite(two_suites, tmp_path, capsys):
         assert not (two_suites / suite / "report").exists()
     assert stdout.count("IQM [95% CI]") == 1 and "| GAIfO | 2 × 1 |" in stdout
     assert "| Survival | 2 × 1 | 0.23 [" in stdout
-    assert "P(GAIfO > other) [95% CI]" in stdout
+    assert "| GAIfO > Survival | 1.00 [1.00, 1.00] |" in stdout
     assert "no learning algorithm" in stdout  # suite b
     only_references = (out / "b" / "report.md").read_text()
     assert "No learning algorithm was run" in only_references
