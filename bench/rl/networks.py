@@ -205,9 +205,15 @@ class ValueNet(nn.Module):
         super().__init__()
         self.norm = norm  # shared, not copied: one set of statistics per learner
         self.net = body(obs_shape, hidden, 1, trunk)
+        self.frames = len(_shape(obs_shape)) == 3
 
     def forward(self, obs: torch.Tensor) -> torch.Tensor:
         return self.net(self.norm(obs)).squeeze(-1)
+
+    def head(self, features: torch.Tensor) -> torch.Tensor:
+        """V from features the trunk already computed (frames; for vectors, the normalized
+        states): with a shared trunk, one trunk pass serves the policy and the value."""
+        return (self.net[1] if self.frames else self.net)(features).squeeze(-1)
 
 
 class DeterministicPolicy:

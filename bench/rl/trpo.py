@@ -123,17 +123,20 @@ def policy_step(
     actions: torch.Tensor,
     adv: torch.Tensor,
     cfg: TRPOConfig,
+    features: torch.Tensor | None = None,
 ) -> dict[str, float]:
     """One natural-gradient step on the surrogate advantage inside the KL trust region.
 
     It moves the policy's head only: from frames, the conv trunk it shares with the value
     function learns from the value loss (as in PPO's Atari networks), since a trust region
     of 0.01 nats spread over every conv weight starves the features of learning. The trunk's
-    features are therefore fixed during the step, and computed once.
+    features are therefore fixed during the step, and computed once (`features`: given
+    already, as `policy.features(obs)`).
     """
     params = [p for p in policy.head_parameters() if p.requires_grad]
     with torch.no_grad():
-        features = policy.features(obs)
+        if features is None:
+            features = policy.features(obs)
         old_mean = policy.mean_net(features)
         old_log_std = policy.log_std.detach().clone()
         old_logp = policy.log_prob(old_mean, actions)
@@ -205,17 +208,22 @@ def value_step(
 ) -> float:
     """Value regression. With `keep` = (policy, its mean actions on `obs`), for a policy that
     shares the value's trunk: the trunk then also pays the KL by which it would move the policy,
-    so value learning does not change the policy outside TRPO's trust region."""
+    so value learning does not change the policy outside TRPO's trust region. One trunk pass
+    per minibatch feeds both heads."""
     n = obs.shape[0]
     loss = torch.zeros(())
     for _ in range(cfg.vf_epochs):
         perm = torch.randperm(n, generator=gen)
         for start in range(0, n, cfg.vf_minibatch):
             idx = perm[start : start + cfg.vf_minibatch]
-            loss = (value(obs[idx]) - targets[idx]).square().mean()
-            if keep is not None:
+            if keep is None:
+                loss = (value(obs[idx]) - targets[idx]).square().mean()
+            else:
                 policy, old_mean = keep
-                loss = loss + CLONE_WEIGHT * mean_kl(policy, old_mean[idx], policy(obs[idx]))
+                features = policy.features(obs[idx])
+                loss = (value.head(features) - targets[idx]).square().mean()
+                clone = mean_kl(policy, old_mean[idx], policy.mean_net(features))
+                loss = loss + CLONE_WEIGHT * clone
             opt.zero_grad()
             loss.backward()
             opt.step()
@@ -304,7 +312,11 @@ class TRPO:
         obs = torch.from_numpy(batch.flat("obs")).to(self.device)
         next_obs = torch.from_numpy(batch.flat("next_obs")).to(self.device)
         with torch.no_grad():
-            values = self.value(obs).cpu().numpy().reshape(T, E)
+            # A shared trunk's features of `obs` serve the values, the policy step and the
+            # means to keep: the policy step leaves the trunk as it is.
+            features = self.policy.features(obs) if self.shared_trunk else None
+            values = self.value(obs) if features is None else self.value.head(features)
+            values = values.cpu().numpy().reshape(T, E)
             next_values = self.value(next_obs).cpu().numpy().reshape(T, E)
         adv, targets = gae(
             rewards.astype(np.float32),
@@ -319,11 +331,11 @@ class TRPO:
         adv_t = torch.from_numpy(adv.reshape(-1)).to(self.device)
         adv_t = (adv_t - adv_t.mean()) / (adv_t.std() + 1e-8)
         actions = torch.from_numpy(batch.flat("actions")).to(self.device)
-        info = policy_step(self.policy, obs, actions, adv_t, cfg)
+        info = policy_step(self.policy, obs, actions, adv_t, cfg, features)
         keep = None
-        if self.shared_trunk:
+        if features is not None:
             with torch.no_grad():
-                keep = (self.policy, self.policy(obs))
+                keep = (self.policy, self.policy.mean_net(features))
         info["vf_loss"] = value_step(
             self.value,
             self.vf_opt,
