@@ -275,8 +275,8 @@ def save(fig: Figure, out: str | Path) -> list[Path]:
 
 
 def _panels(n: int, width: float, height: float) -> tuple[Figure, list[Axes]]:
-    """A grid of n panels, at most 3 per row; unused cells removed."""
-    ncols = min(3, n)
+    """A grid of n panels, at most 3 per row (4 as 2 x 2); unused cells removed."""
+    ncols = 2 if n == 4 else min(3, n)
     nrows = math.ceil(n / ncols)
     width *= {1: 1.4, 2: 1.2, 3: 1.0}[ncols]  # room for the title and legend when few panels
     fig = Figure(figsize=(width * ncols, height * nrows + 0.9), layout="constrained")
