@@ -75,7 +75,7 @@ def report_each_update(
 
     def on_update(steps: int, learner: TRPO, batch: Batch, info: dict[str, float]) -> None:
         noise = learner.policy.log_std.detach().exp().mean().item()
-        trunk = {"trunk_kl": info["trunk_kl"]} if "trunk_kl" in info else {}  # frames only
+        trunk = {k: info[k] for k in ("trunk_kl", "trunk_step_frac") if k in info}  # frames only
         logger.log(steps, **(stats or {}), kl=info["kl"], **trunk, policy_std=noise)
         if average is None:
             logger.checkpoint(steps, deterministic(learner, task))

@@ -7,7 +7,7 @@ from bench.experts import load_expert
 from bench.pixels import PixelConfig, VideoBeside
 from bench.rl.networks import GaussianPolicy
 from bench.rl.rollout import VecCollector
-from bench.rl.trpo import TRPO, TRPOConfig, policy_step
+from bench.rl.trpo import TRPO, TRPOConfig, mean_kl, policy_step
 from bench.runner import run_suite
 from bench.suite import expand, load_suite
 from bench.types import Demos
@@ -187,3 +187,32 @@ def test_from_frames_the_value_loss_trains_the_trunk_and_trpo_moves_the_head():
     info = learner.update(batch, batch.rewards)  # ... and the value regression does,
     assert not _unchanged(trunk, policy.trunk)
     assert 0 <= info["trunk_kl"] < learner.cfg.max_kl  # paying for how far it moves the policy
+
+
+def test_a_trunk_step_that_moves_the_policy_too_far_is_backtracked_into_the_trust_region():
+    cfg = PixelConfig(size=32, stack=2)
+    collector = VecCollector([envs.make(PENDULUM, s, cfg) for s in range(2)], 0)
+    learner = TRPO(cfg.shape, 1, TRPOConfig(n_envs=2, steps_per_env=64), seed=0)
+    policy = learner.policy
+    with torch.no_grad():  # a policy whose mean actions depend on the frames
+        for p in policy.mean_net.parameters():
+            p.normal_(0.0, 0.5)
+    obs = torch.from_numpy(collector.collect(policy, 64).flat("obs"))
+    collector.close()
+    trunk = list(policy.trunk.parameters())
+    before = torch.nn.utils.parameters_to_vector(trunk).detach().clone()
+    with torch.no_grad():
+        old_mean = policy(obs)
+    small = before + 1e-6 * torch.randn_like(before)
+    torch.nn.utils.vector_to_parameters(small, trunk)
+    assert learner.hold_trunk(obs, old_mean, before)["trunk_step_frac"] == 1.0  # left alone
+    assert torch.equal(torch.nn.utils.parameters_to_vector(trunk), small)
+
+    torch.nn.utils.vector_to_parameters(before + 0.5 * torch.randn_like(before), trunk)
+    with torch.no_grad():
+        assert mean_kl(policy, old_mean, policy(obs)) > learner.cfg.max_kl
+    held = learner.hold_trunk(obs, old_mean, before)
+    assert held["trunk_kl_before_hold"] > learner.cfg.max_kl
+    assert 0 <= held["trunk_step_frac"] < 1 and held["trunk_kl"] <= learner.cfg.max_kl
+    with torch.no_grad():
+        assert mean_kl(policy, old_mean, policy(obs)).item() == pytest.approx(held["trunk_kl"])

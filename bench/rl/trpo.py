@@ -16,6 +16,7 @@ from dataclasses import dataclass
 import gymnasium as gym
 import numpy as np
 import torch
+from torch import nn
 
 from bench.rl.networks import ConvTrunk, GaussianPolicy, ObsShape, RunningNorm, ValueNet
 from bench.rl.rollout import Batch, RewardFn, Rewards, VecCollector
@@ -336,6 +337,7 @@ class TRPO:
         if features is not None:
             with torch.no_grad():
                 keep = (self.policy, self.policy.mean_net(features))
+            trunk_before = nn.utils.parameters_to_vector(self.policy.trunk.parameters()).detach()
         info["vf_loss"] = value_step(
             self.value,
             self.vf_opt,
@@ -345,10 +347,33 @@ class TRPO:
             self.gen,
             keep,
         )
-        if keep is not None:  # how far the trunk's value learning moved the policy after all
-            with torch.no_grad():
-                info["trunk_kl"] = mean_kl(self.policy, keep[1], self.policy(obs)).item()
+        if keep is not None:
+            info.update(self.hold_trunk(obs, keep[1], trunk_before))
         return info
+
+    @torch.no_grad()
+    def hold_trunk(
+        self, obs: torch.Tensor, old_mean: torch.Tensor, before: torch.Tensor
+    ) -> dict[str, float]:
+        """Keep the shared trunk's value-learning step inside the trust region: if it moved the
+        policy's mean actions on `obs` (from `old_mean`) by a KL above max_kl, halve the step
+        (TRPO's backtracking) until it does not, or undo it. The cloning term keeps that KL
+        small on most updates; this bounds the rare update where it does not (one drift of 4x
+        the trust region was followed by a balanced pendulum falling for good)."""
+        trunk = list(self.policy.trunk.parameters())
+        after = nn.utils.parameters_to_vector(trunk)
+        kl = mean_kl(self.policy, old_mean, self.policy(obs)).item()
+        moved = kl
+        frac = 1.0
+        while kl > self.cfg.max_kl:
+            frac /= 2
+            if frac < 0.5**self.cfg.line_search_steps:
+                frac, kl = 0.0, 0.0
+                nn.utils.vector_to_parameters(before, trunk)
+                break
+            nn.utils.vector_to_parameters(before + frac * (after - before), trunk)
+            kl = mean_kl(self.policy, old_mean, self.policy(obs)).item()
+        return {"trunk_kl": kl, "trunk_kl_before_hold": moved, "trunk_step_frac": frac}
 
 
 Callback = Callable[[int, TRPO, Batch, dict[str, float]], None]
