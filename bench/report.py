@@ -567,7 +567,7 @@ def _per_env_section(
     envs = []
     for env_id in plot.env_order(df["env_id"].unique()):
         here = df[df["env_id"] == env_id]
-        names = [a for a in competitors(df, n) if a in set(_at_count(here, n)["algorithm"])]
+        names = competitors(here, n)
         if not names:
             continue
         with warnings.catch_warnings():
@@ -644,12 +644,6 @@ def _env_table(
             values.append(_interval(r["estimate"], r["lo"], r["hi"]) + seeds)
         lines.append(_row([label, *values]))
     return "\n".join(lines)
-
-
-def _at_count(df: pd.DataFrame, n: int) -> pd.DataFrame:
-    """The learners' rows that compete at `n` demos: those run with `n`, and the controls."""
-    learners = df[~df["algorithm"].isin(REFERENCES)]
-    return learners[(learners["n_demos"] == n) | demo_free(learners)]
 
 
 def _state_match_section(
