@@ -122,7 +122,11 @@ def test_a_tiny_pixel_suite_runs_end_to_end(tmp_path, monkeypatch):
 @pytest.mark.usefixtures("demo_cache")
 def test_dask_workers_learn_from_the_video_the_driver_ships(tmp_path, monkeypatch):
     distributed = pytest.importorskip("distributed")
-    specs = [s for s in tiny_suite(tmp_path, monkeypatch, "pixels, frame_size: 32") if s.algorithm == "gaifo"]
+    specs = [
+        s
+        for s in tiny_suite(tmp_path, monkeypatch, "pixels, frame_size: 32")
+        if s.algorithm == "gaifo"
+    ]
     loky = run_suite(specs, tmp_path / "loky", jobs=1, progress=False)
     # The workers (other machines, in practice) start from an empty cache of their own.
     monkeypatch.setenv("IFO_BENCH_CACHE", str(tmp_path / "worker-cache"))
@@ -130,7 +134,11 @@ def test_dask_workers_learn_from_the_video_the_driver_ships(tmp_path, monkeypatc
         n_workers=1, threads_per_worker=1, processes=True, dashboard_address=None
     ) as cluster:
         dask = run_suite(
-            specs, tmp_path / "dask", backend="dask", scheduler=cluster.scheduler_address, progress=False
+            specs,
+            tmp_path / "dask",
+            backend="dask",
+            scheduler=cluster.scheduler_address,
+            progress=False,
         )
     assert loky.done == dask.done == 1
     (a,), (b,) = store.scan(tmp_path / "loky"), store.scan(tmp_path / "dask")
