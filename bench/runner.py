@@ -291,17 +291,23 @@ class Estimate:
     """What the estimate rests on."""
 
 
+def _seconds_at(record: TrialResult, budget: float) -> float:
+    """What `record` predicts a like trial of `budget` env steps takes: training time scales
+    with the budget, but a trial that trained on no env step (the references: random, expert)
+    costs its evaluation alone, at any budget."""
+    return record.wall_time * budget / record.spec.budget if record.env_steps else record.wall_time
+
+
 def estimate(specs: list[TrialSpec], records: Iterable[TrialResult]) -> list[Estimate]:
     """Expected cost of `specs` per (env, algorithm), from the seconds per env step that
     finished `records` took: their mean on the same env if any, else the slowest measured
     env's seen the same way (rough: envs step at different speeds; a state trial never goes by
     a pixel one's). Records made while the machine was busy make an estimate high."""
     # Keyed by how the env is seen as well: a state trial only goes by state trials.
-    per_step: dict[tuple[str | None, str, str], list[float]] = {}
+    done: dict[tuple[str | None, str, str], list[TrialResult]] = {}
     for r in records:
         if r.status == "ok" and r.spec.budget > 0:
-            key = (observed(r.spec), *cost_kind(r.spec))
-            per_step.setdefault(key, []).append(r.wall_time / r.spec.budget)
+            done.setdefault((observed(r.spec), *cost_kind(r.spec)), []).append(r)
     groups: dict[tuple[str, str], list[TrialSpec]] = {}
     for spec in specs:
         groups.setdefault(cost_kind(spec), []).append(spec)
@@ -309,16 +315,19 @@ def estimate(specs: list[TrialSpec], records: Iterable[TrialResult]) -> list[Est
     for (env_id, algorithm), group in groups.items():
         budget = sum(s.budget for s in group) / len(group)
         seen = observed(group[0])
-        here = per_step.get((seen, env_id, algorithm))
+        here = done.get((seen, env_id, algorithm))
         elsewhere = {
-            e: np.mean(vs) for (o, e, a), vs in per_step.items() if o == seen and a == algorithm
+            e: float(np.mean([_seconds_at(r, budget) for r in rs]))
+            for (o, e, a), rs in done.items()
+            if o == seen and a == algorithm
         }
         if here:
-            seconds, basis = float(np.mean(here)) * budget, f"mean of {len(here)} trials"
+            seconds = float(np.mean([_seconds_at(r, budget) for r in here]))
+            basis = f"mean of {len(here)} trials"
         elif elsewhere:
             slowest = max(elsewhere, key=elsewhere.get)
-            seconds = float(elsewhere[slowest]) * budget
-            basis = f"rough: per step as on {slowest}, the slowest measured"
+            seconds = elsewhere[slowest]
+            basis = f"rough: as on {slowest}, the slowest measured"
         else:
             seconds, basis = None, f"no finished {algorithm} trial"
         out.append(Estimate(env_id, algorithm, len(group), seconds, basis))

@@ -233,6 +233,15 @@ def test_estimate_from_seconds_per_step_here_or_at_most_the_slowest_env():
     assert rows["C", "bco"].seconds is None
 
 
+def test_a_reference_costs_its_evaluation_at_any_budget():
+    # A tiny-budget expert record (no env step of training) must not scale to 200 minutes at 2M.
+    spec = TrialSpec("s", "A", "expert", 5, 0, 256, 10)
+    records = [TrialResult(spec, "ok", [1.0], [], 0, 5.0, {})]
+    todo = [TrialSpec("s", env, "expert", 5, 1, 2_000_000, 10) for env in ("A", "B")]
+    rows = {r.env_id: r for r in estimate(todo, records)}
+    assert rows["A"].seconds == rows["B"].seconds == pytest.approx(5.0)
+
+
 def test_a_state_trials_estimate_never_goes_by_a_pixel_trials_cost():
     def done(env_id: str, observation: str | None, seconds: float) -> TrialResult:
         spec = TrialSpec("s", env_id, "gaifo", 5, 0, 1000, 10, observation=observation)
