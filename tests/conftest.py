@@ -43,3 +43,22 @@ def demo_cache(tmp_path, monkeypatch):
     """A private demo cache per test, for this process and any bench subprocess it starts."""
     monkeypatch.setenv("IFO_BENCH_CACHE", str(tmp_path / "cache"))
     monkeypatch.setattr("bench.paths.CACHE_DIR", tmp_path / "cache")
+
+
+@pytest.fixture(scope="session")
+def on_dask():
+    """`on_dask(specs, results, workers)` runs the trials as `bench run --backend dask` would,
+    on a local cluster of `workers` worker processes (one thread each) started for the call,
+    so workers see the environment as it is then. Skips where dask.distributed is missing."""
+    distributed = pytest.importorskip("distributed")
+    from bench.runner import run_suite
+
+    def run(specs, results, workers: int):
+        with distributed.LocalCluster(
+            n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None
+        ) as cluster:
+            return run_suite(
+                specs, results, backend="dask", scheduler=cluster.scheduler_address, progress=False
+            )
+
+    return run

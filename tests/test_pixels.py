@@ -120,8 +120,7 @@ def test_a_tiny_pixel_suite_runs_end_to_end(tmp_path, monkeypatch):
 
 
 @pytest.mark.usefixtures("demo_cache")
-def test_dask_workers_learn_from_the_video_the_driver_ships(tmp_path, monkeypatch):
-    distributed = pytest.importorskip("distributed")
+def test_dask_workers_learn_from_the_video_the_driver_ships(tmp_path, monkeypatch, on_dask):
     specs = [
         s
         for s in tiny_suite(tmp_path, monkeypatch, "pixels, frame_size: 32")
@@ -130,16 +129,7 @@ def test_dask_workers_learn_from_the_video_the_driver_ships(tmp_path, monkeypatc
     loky = run_suite(specs, tmp_path / "loky", jobs=1, progress=False)
     # The workers (other machines, in practice) start from an empty cache of their own.
     monkeypatch.setenv("IFO_BENCH_CACHE", str(tmp_path / "worker-cache"))
-    with distributed.LocalCluster(
-        n_workers=1, threads_per_worker=1, processes=True, dashboard_address=None
-    ) as cluster:
-        dask = run_suite(
-            specs,
-            tmp_path / "dask",
-            backend="dask",
-            scheduler=cluster.scheduler_address,
-            progress=False,
-        )
+    dask = on_dask(specs, tmp_path / "dask", workers=1)
     assert loky.done == dask.done == 1
     (a,), (b,) = store.scan(tmp_path / "loky"), store.scan(tmp_path / "dask")
     assert a.returns == b.returns and a.logs["disc_loss"] == b.logs["disc_loss"]

@@ -73,8 +73,7 @@ def test_killed_run_resumes_without_losing_or_duplicating(tmp_path, cli):
     assert {name.removesuffix(".json") for name in after} == ids
 
 
-def test_dask_backend_matches_loky(tmp_path):
-    distributed = pytest.importorskip("distributed")
+def test_dask_backend_matches_loky(tmp_path, on_dask):
     suite = write_suite(
         tmp_path,
         "dask",
@@ -83,16 +82,7 @@ def test_dask_backend_matches_loky(tmp_path):
     specs = expand(load_suite(suite))
     loky = run_suite(specs, tmp_path / "loky", jobs=2, progress=False)
     assert loky.done == len(specs) == 4
-    with distributed.LocalCluster(
-        n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None
-    ) as cluster:
-        dask = run_suite(
-            specs,
-            tmp_path / "dask",
-            backend="dask",
-            scheduler=cluster.scheduler_address,
-            progress=False,
-        )
+    dask = on_dask(specs, tmp_path / "dask", workers=2)
     assert dask.done == 4
     a, b = store.load(tmp_path / "loky"), store.load(tmp_path / "dask")
     np.testing.assert_array_equal(a["return"].to_numpy(), b["return"].to_numpy())
