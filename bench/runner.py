@@ -315,18 +315,17 @@ def estimate(specs: list[TrialSpec], records: Iterable[TrialResult]) -> list[Est
     for (env_id, algorithm), group in groups.items():
         budget = sum(s.budget for s in group) / len(group)
         seen = observed(group[0])
-        here = done.get((seen, env_id, algorithm))
-        elsewhere = {
+        by_env = {  # this env's, if measured, and every other env's seen the same way
             e: float(np.mean([_seconds_at(r, budget) for r in rs]))
             for (o, e, a), rs in done.items()
             if o == seen and a == algorithm
         }
-        if here:
-            seconds = float(np.mean([_seconds_at(r, budget) for r in here]))
-            basis = f"mean of {len(here)} trials"
-        elif elsewhere:
-            slowest = max(elsewhere, key=elsewhere.get)
-            seconds = elsewhere[slowest]
+        if env_id in by_env:
+            seconds = by_env[env_id]
+            basis = f"mean of {len(done[seen, env_id, algorithm])} trials"
+        elif by_env:
+            slowest = max(by_env, key=by_env.get)
+            seconds = by_env[slowest]
             basis = f"rough: as on {slowest}, the slowest measured"
         else:
             seconds, basis = None, f"no finished {algorithm} trial"
