@@ -14,6 +14,14 @@ import pandas as pd
 RANDOM, EXPERT = "random", "expert"
 REFERENCES = (RANDOM, EXPERT)
 """The reference algorithms that define 0 and 1; every other algorithm is a learner."""
+ORACLE = "oracle"
+"""The upper control (TRPO on the env's own reward): the ceiling the imitators are read against."""
+
+
+def is_oracle(df: pd.DataFrame) -> pd.Series:
+    """Per row of `df`: is it a trial of the oracle control, or of a labelled variant of it?
+    (Column `method`, the registered algorithm; frames without it go by `algorithm`.)"""
+    return df.get("method", df["algorithm"]) == ORACLE
 
 
 def demo_free(df: pd.DataFrame) -> pd.Series:

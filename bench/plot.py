@@ -21,7 +21,7 @@ from matplotlib.patches import Patch
 from matplotlib.ticker import EngFormatter
 
 from bench.envs import PAPER_ENVS
-from bench.normalize import REFERENCES, demo_free
+from bench.normalize import REFERENCES, demo_free, is_oracle
 
 """Normalized to 0 and 1 by construction: drawn as lines, not bars."""
 PAPER_ALGORITHMS = ("gaifo", "gail", "bco", "tcn", "survival")
@@ -32,6 +32,7 @@ LABELS = {
     "bco": "BCO",
     "tcn": "TCN",
     "survival": "Survival",
+    "oracle": "Oracle",
     "random": "Random",
     "expert": "Expert",
 }
@@ -39,6 +40,9 @@ ACTIONS_FOOTNOTE = "* has access to expert actions"
 PALETTE = "colorblind"
 DPI = 200
 REFERENCE_LINES = {"random": ("0.45", "Random (0)"), "expert": ("0.1", "Expert (1)")}
+CEILING_STYLE = {"linestyle": "-.", "linewidth": 1.3}
+"""The oracle control (TRPO on the true reward) is a reference, not a competitor: a line across
+each panel at its mean over seeds, a band of one standard deviation, no bar."""
 
 
 # ---------------------------------------------------------------- order, names, colors
@@ -105,13 +109,14 @@ def draw_figure2(df: pd.DataFrame) -> Figure:
     e.g. survival) score the same at every count, so their bar repeats.
     Needs columns env_id, algorithm, n_demos, normalized.
     """
-    learners = repeat_demo_free(df[~df["algorithm"].isin(REFERENCES)])
+    ceilings = df[is_oracle(df)]
+    learners = repeat_demo_free(df[~df["algorithm"].isin(REFERENCES) & ~is_oracle(df)])
     if learners.empty:
-        raise ValueError("no trials of a learning algorithm to plot (only random/expert)")
+        raise ValueError("no trials of a learning algorithm to plot (only references and oracle)")
     envs = env_order(learners["env_id"].unique())
     algos = algorithm_order(learners["algorithm"].unique())
     demos = sorted(learners["n_demos"].unique())
-    colors = algorithm_colors(algos)
+    colors = algorithm_colors([*algos, *ceilings["algorithm"].unique()])
     starred = action_users(learners)
 
     with sns.axes_style("whitegrid"), sns.plotting_context("paper"):
@@ -132,6 +137,7 @@ def draw_figure2(df: pd.DataFrame) -> Figure:
                 legend=False,
                 ax=ax,
             )
+            _ceiling_lines(ax, ceilings[ceilings["env_id"] == env_id], colors)
             _reference_lines(ax)
             ax.set_title(env_label(env_id))
             ax.set_xlabel("")
@@ -140,6 +146,16 @@ def draw_figure2(df: pd.DataFrame) -> Figure:
         fig.supxlabel("Number of demonstration trajectories", fontsize="medium")
         fig.supylabel("Normalized return", fontsize="medium")
         handles = [Patch(facecolor=colors[a], label=algorithm_label(a, starred)) for a in algos]
+        handles += [
+            Line2D(
+                [],
+                [],
+                color=colors[a],
+                **CEILING_STYLE,
+                label=f"{algorithm_label(a)} (true reward)",
+            )
+            for a in algorithm_order(ceilings["algorithm"].unique())
+        ]
         _legend_and_titles(
             fig, handles, "Imitation performance vs. number of demonstrations", starred
         )
@@ -285,6 +301,16 @@ def _panels(n: int, width: float, height: float) -> tuple[Figure, list[Axes]]:
     for ax in axes[n:]:
         fig.delaxes(ax)
     return fig, axes[:n]
+
+
+def _ceiling_lines(ax: Axes, ceilings: pd.DataFrame, colors: dict) -> None:
+    """Each oracle variant of one env as a line at its mean normalized return over seeds, and a
+    band of one standard deviation around it."""
+    for name, rows in ceilings.groupby("algorithm"):
+        mean, sd = rows["normalized"].mean(), rows["normalized"].std()
+        ax.axhline(mean, color=colors[name], zorder=2.5, **CEILING_STYLE)
+        if pd.notna(sd):
+            ax.axhspan(mean - sd, mean + sd, color=colors[name], alpha=0.12, lw=0, zorder=0.4)
 
 
 def _reference_lines(ax: Axes) -> None:

@@ -25,7 +25,15 @@ import numpy as np
 import pandas as pd
 
 from bench import plot, stats, store
-from bench.normalize import EXPERT, RANDOM, REFERENCES, demo_free, normalize, reference_returns
+from bench.normalize import (
+    EXPERT,
+    ORACLE,
+    RANDOM,
+    REFERENCES,
+    demo_free,
+    normalize,
+    reference_returns,
+)
 
 REPORT = "report.md"
 AGGREGATES_CSV = "aggregates.csv"
@@ -202,14 +210,44 @@ def competitors(df: pd.DataFrame, n_demos: int) -> list[str]:
     return plot.algorithm_order(set(learners.loc[here | demo_free(learners), "algorithm"]))
 
 
-def improvement_pairs(names: Collection[str]) -> list[tuple[str, str]]:
+def improvement_pairs(
+    names: Collection[str], ceilings: Collection[str] = (ORACLE,)
+) -> list[tuple[str, str]]:
     """The (a, b) whose P(a > b) a report gives: GAIfO against every other learner, then every
-    other learner against the survival control (did it learn from the demonstrations at all?)."""
-    ordered = _in_order(pd.Series(list(names), dtype=object))
+    other learner against the survival control (did it learn from the demonstrations at all?).
+    The oracle's `ceilings` are references, read as fractions (`oracle_fractions`), not rivals."""
+    ordered = _in_order(pd.Series([n for n in names if n not in ceilings], dtype=object))
     pairs = [(TARGET, other) for other in ordered if other != TARGET] if TARGET in names else []
     if CONTROL in names:
         pairs += [(a, CONTROL) for a in ordered if a not in (TARGET, CONTROL)]
     return pairs
+
+
+def ceiling_of(learner: str, methods: dict[str, str]) -> str | None:
+    """The oracle variant `learner` is read against: the one whose label shares the learner's
+    variant suffix (gaifo-b1024 -> oracle-b1024), else the plain oracle, else None.
+    `methods`: shown name -> registered algorithm, for every name present."""
+    oracles = {name for name, method in methods.items() if method == ORACLE}
+    suffix = learner.removeprefix(methods.get(learner, learner))
+    matched = f"{ORACLE}{suffix}"
+    if suffix and matched in oracles:
+        return matched
+    return ORACLE if ORACLE in oracles else None
+
+
+def oracle_fractions(
+    scores: dict[str, np.ndarray], methods: dict[str, str], reps: int = 2000
+) -> pd.DataFrame:
+    """Each learner's IQM as a fraction of its oracle's (`ceiling_of`), with a 95% bootstrap CI:
+    algorithm, other (the oracle), estimate, lo, hi. Empty where no oracle ran."""
+    rows = []
+    for i, name in enumerate(scores):
+        ceiling = ceiling_of(name, methods)
+        if methods.get(name) == ORACLE or ceiling is None or ceiling not in scores:
+            continue
+        ratio = stats.iqm_ratio(scores[name], scores[ceiling], reps=reps, seed=i)
+        rows.append({"algorithm": name, "other": ceiling, **ratio})
+    return pd.DataFrame(rows, columns=["algorithm", "other", "estimate", "lo", "hi"])
 
 
 def load_iqm_curves(results_dir: Path, trials: pd.DataFrame, reps: int = 2000) -> pd.DataFrame:
@@ -369,6 +407,14 @@ def _how_to_read(learners: Sequence[str], reps: int, action_users: Collection[st
             "alive, so the same runs appear at every demonstration count. A learner that does "
             "not beat it has not shown that it learned from the demonstrations."
         )
+    if ORACLE in learners:
+        items.append(
+            "**Oracle** is the upper control: the imitators' optimizer with their settings, "
+            "trained on the env's own reward, no demonstrations. It is drawn as a line, not a bar. "
+            "A learner's IQM as a fraction of the oracle's (per env) says how much of what the "
+            "optimizer reaches at this budget the imitation reaches; the gap from the oracle to "
+            "the expert is the optimizer's."
+        )
     if set(action_users) & set(learners):
         items.append(
             "**\\*** marks algorithms that see the expert's actions, which imitation from "
@@ -513,7 +559,8 @@ def _demo_section(
             parts.append(
                 f"{plot.algorithm_label(TARGET, starred)} has no scores with {title.lower()}."
             )
-        pairs = improvement_pairs(scores)
+        methods = _methods(df)
+        pairs = improvement_pairs(scores, [a for a in scores if methods.get(a) == ORACLE])
         if pairs:
             improvement = stats.improvement_of_pairs(scores, pairs, reps=reps)
             parts.append(improvement_table(improvement, starred))
@@ -589,11 +636,17 @@ def _per_env_section(
                     r.hi,
                 )
             )
-        pairs = improvement_pairs(scores)
+        methods = _methods(here)
+        pairs = improvement_pairs(scores, [a for a in scores if methods.get(a) == ORACLE])
         for r in stats.improvement_of_pairs(scores, pairs, reps=reps).itertuples():
             seeds = min(len(scores[r.algorithm]), len(scores[r.other]))
             rows.append(
                 (n, env_id, "p_improvement", r.algorithm, r.other, seeds, r.estimate, r.lo, r.hi)
+            )
+        for r in oracle_fractions(scores, methods, reps).itertuples():
+            seeds = len(scores[r.algorithm])
+            rows.append(
+                (n, env_id, "of_oracle", r.algorithm, r.other, seeds, r.estimate, r.lo, r.hi)
             )
     if not envs:
         return "", pd.DataFrame(columns=PER_ENV_COLUMNS)
@@ -622,7 +675,21 @@ def _per_env_section(
         pairs = dict.fromkeys(zip(improved["algorithm"], improved["other"], strict=True))
         labels = {_pair_label(a, b, starred): (a, b) for a, b in pairs}
         lines.append(_env_table(improved, "P(improvement) [95% CI]", labels, columns))
+    fractions = frame[frame["statistic"] == "of_oracle"]
+    if len(fractions):
+        pairs = dict.fromkeys(zip(fractions["algorithm"], fractions["other"], strict=True))
+        labels = {
+            f"{plot.algorithm_label(a, starred)} / {plot.algorithm_label(b)}": (a, b)
+            for a, b in pairs
+        }
+        lines.append(_env_table(fractions, "IQM / oracle's IQM [95% CI]", labels, columns))
     return "\n\n".join(lines), frame
+
+
+def _methods(df: pd.DataFrame) -> dict[str, str]:
+    """Shown name -> registered algorithm (the name itself in frames without `method`)."""
+    method = df["method"] if "method" in df else df["algorithm"]
+    return dict(zip(df["algorithm"], method, strict=True))
 
 
 def _env_table(

@@ -276,6 +276,20 @@ def iqm_difference(
     }
 
 
+def iqm_ratio(
+    scores: np.ndarray, ceiling: np.ndarray, reps: int = 2000, seed: int = 0
+) -> dict[str, float]:
+    """IQM(scores) / IQM(ceiling), e.g. a learner's as a fraction of the oracle's, with a 95%
+    percentile-bootstrap CI: two independent samples of seeds, each resampled on its own."""
+    rng = np.random.default_rng(seed)
+    scores, ceiling = np.ravel(scores).astype(float), np.ravel(ceiling).astype(float)
+    boot = iqm(scores[rng.integers(len(scores), size=(reps, len(scores)))])
+    boot_ceiling = iqm(ceiling[rng.integers(len(ceiling), size=(reps, len(ceiling)))])
+    with np.errstate(divide="ignore", invalid="ignore"):
+        lo, hi = np.nanpercentile(boot / boot_ceiling, [2.5, 97.5])
+    return {"estimate": float(iqm(scores) / iqm(ceiling)), "lo": float(lo), "hi": float(hi)}
+
+
 def compare(run: pd.DataFrame, ref: pd.DataFrame, reps: int = 2000, seed: int = 0) -> pd.DataFrame:
     """Per env, algorithm and demo count present in both normalized frames: each one's IQM over
     seeds with a 95% CI, the difference's CI, and a verdict: "differs" when that CI excludes 0,

@@ -33,6 +33,7 @@ STALE_TMP_SECONDS = 600.0
 SPEC_COLUMNS = ["suite", "env_id", "algorithm", "n_demos", "seed", "budget", "observation"]
 TRIAL_COLUMNS = [
     *SPEC_COLUMNS,
+    "method",
     "inputs",
     "trial_id",
     "status",
@@ -163,9 +164,11 @@ def scan(results_dir: str | Path) -> Iterator[TrialResult]:
 
 
 def _spec_row(r: TrialResult) -> dict[str, Any]:
-    """The spec's columns; `algorithm` is the name shown (a labelled variant's label)."""
+    """The spec's columns; `algorithm` is the name shown (a labelled variant's label) and
+    `method` the registered algorithm it runs."""
     row = {"trial_id": r.trial_id, **{c: getattr(r.spec, c) for c in SPEC_COLUMNS}}
-    return row | {"algorithm": r.spec.shown, "observation": r.spec.observation or "states"}
+    shown = {"algorithm": r.spec.shown, "method": r.spec.algorithm}
+    return row | shown | {"observation": r.spec.observation or "states"}
 
 
 def _trial_row(r: TrialResult) -> dict[str, Any]:

@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 import pytest
+from matplotlib.container import BarContainer
 from matplotlib.patches import Rectangle
 
 from bench import plot, stats
@@ -141,3 +142,17 @@ def test_performance_profile_plot(tmp_path):
     fig = plot.draw_performance_profile(profile, action_users={"gail"})
     assert [line.get_label() for line in fig.axes[0].lines] == ["GAIfO", "GAIL*"]
     assert plot.save(fig, tmp_path / "profile")[1].is_file()
+
+
+def test_figure2_draws_the_oracle_as_a_line_not_a_bar():
+    df = frame()
+    oracle = df[df["algorithm"] == "expert"].assign(
+        algorithm="oracle", method="oracle", normalized=[0.8, 0.9, 0.7] * len(ENVS)
+    )
+    fig = plot.draw_figure2(pd.concat([df.assign(method=df["algorithm"]), oracle]))
+    for ax in fig.axes:
+        bars = [bar for c in ax.containers if isinstance(c, BarContainer) for bar in c]
+        assert len(bars) == 2 * len(DEMOS)  # gaifo and gail; the oracle's band is no bar
+        dash_dot = [line for line in ax.lines if line.get_linestyle() == "-."]
+        assert [round(line.get_ydata()[0], 6) for line in dash_dot] == [0.8]  # mean over seeds
+    assert "Oracle (true reward)" in [t.get_text() for t in fig.legends[0].get_texts()]

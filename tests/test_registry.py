@@ -75,3 +75,41 @@ def test_trial_id_covers_resolved_defaults(tmp_path):
     assert plain != ids("[random, expert, {gaifo: {disc_lr: 0.001}}]")
     spec = next(s for s in expand(load_suite(tmp_path / "s.yaml")) if s.algorithm == "gaifo")
     assert spec.hyperparams["grad_penalty"] == 10.0  # defaults are in the hashed spec
+
+
+def test_the_controls_run_the_imitators_trpo_settings(tmp_path):
+    """survival and oracle differ from GAIfO and GAIL only in their reward: same config class as
+    their TRPO part, and a suite env's trpo: and hyperparams: settings reach all four alike."""
+    from algorithms.common import ImitationTRPOConfig
+    from bench.suite import expand, load_suite
+
+    algos = registry.all_algorithms()
+    for control in ("survival", "oracle"):
+        assert algos[control].config is ImitationTRPOConfig and algos[control].inputs == "none"
+        assert issubclass(algos["gaifo"].config, ImitationTRPOConfig)
+    suite = tmp_path / "matched.yaml"
+    suite.write_text(
+        f"envs: {{{PENDULUM}: {{budget: 4096, trpo: {{n_envs: 16}},"
+        " hyperparams: {disc_steps: 25, steps_per_env: 128}}}\n"
+        "demos: [1]\nalgorithms: [gaifo, gail, survival, oracle]\nseeds: 1\n"
+    )
+    settings = {s.algorithm: s.hyperparams for s in expand(load_suite(suite))}
+    trpo_fields = set(settings["oracle"])
+    assert settings["oracle"] == settings["survival"]
+    assert settings["oracle"]["n_envs"] == 16 and settings["oracle"]["steps_per_env"] == 128
+    for imitator in ("gaifo", "gail"):
+        assert {k: settings[imitator][k] for k in trpo_fields} == settings["oracle"]
+
+
+def test_the_oracle_trains_on_the_envs_reward_where_survival_trains_on_one_per_step():
+    """InvertedPendulum pays +1 per step alive, so there the two controls are the same learner
+    and their records agree to the bit; Hopper pays for forward progress, so they part."""
+
+    def returns(algorithm: str, env_id: str) -> list[float]:
+        trial = TrialSpec("t", env_id, algorithm, 0, 0, 2048, 2, {"policy_average": 0.0})
+        result = run_trial(trial, trial_inputs(trial))
+        assert result.status == "ok", result.traceback
+        return result.returns
+
+    assert returns("oracle", PENDULUM) == returns("survival", PENDULUM)
+    assert returns("oracle", "HopperBulletEnv-v0") != returns("survival", "HopperBulletEnv-v0")

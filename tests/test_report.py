@@ -280,3 +280,44 @@ def test_cli_without_trials_is_one_line_exit_2(folder, tmp_path, capsys):
     assert cli.main(["report", str(tmp_path / folder)]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and err.startswith("bench: error: ") and str(tmp_path) in err
+
+
+def test_learners_are_read_as_fractions_of_their_matched_oracle(tmp_path):
+    """An oracle at 0.8 and a variant at 0.5: GAIfO (0.7-0.85) reads against the plain one,
+    gaifo-fast against oracle-fast; the oracles are not rivals in P(improvement)."""
+    results = write_suite(tmp_path / "synthetic", demos=[5])
+    for env_id in ENVS:
+        random, expert = ENVS[env_id]
+        for seed in range(4):
+            for label, level in (("oracle", 0.8), ("oracle-fast", 0.5), ("gaifo-fast", 0.45)):
+                algorithm = label.split("-")[0]
+                n = 0 if algorithm == "oracle" else 5
+                spec = TrialSpec("synthetic", env_id, algorithm, n, seed, BUDGET, 3, label=label)
+                ret = random + (expert - random) * (level + 0.01 * seed)
+                store.write(results, trial(env_id, "gaifo", 5, seed, spec=spec, returns=[ret]))
+    report.write_report(results, reps=REPS)
+    rows = pd.read_csv(results / "report" / "per_env.csv")
+    fractions = rows[rows["statistic"] == "of_oracle"].set_index(["env_id", "algorithm"])
+    hopper = list(ENVS)[1]
+    assert fractions.loc[(hopper, "gaifo"), "other"] == "oracle"
+    assert fractions.loc[(hopper, "gaifo"), "estimate"] == pytest.approx(0.775 / 0.815)
+    assert fractions.loc[(hopper, "gaifo-fast"), "other"] == "oracle-fast"
+    assert fractions.loc[(hopper, "gaifo-fast"), "estimate"] == pytest.approx(0.465 / 0.515)
+    lo, hi = fractions.loc[(hopper, "gaifo"), ["lo", "hi"]]
+    assert lo <= 0.775 / 0.815 <= hi
+    improved = rows[rows["statistic"] == "p_improvement"]
+    assert not {"oracle", "oracle-fast"} & (set(improved["algorithm"]) | set(improved["other"]))
+    assert "IQM / oracle's IQM" in (results / "report" / "report.md").read_text()
+
+
+def test_ceiling_of_matches_a_variant_suffix_else_the_plain_oracle():
+    methods = {
+        "gaifo": "gaifo",
+        "gaifo-b1024": "gaifo",
+        "oracle": "oracle",
+        "oracle-b1024": "oracle",
+    }
+    assert report.ceiling_of("gaifo-b1024", methods) == "oracle-b1024"
+    assert report.ceiling_of("gaifo", methods) == "oracle"
+    assert report.ceiling_of("gail-x", methods | {"gail-x": "gail"}) == "oracle"
+    assert report.ceiling_of("gaifo", {"gaifo": "gaifo"}) is None

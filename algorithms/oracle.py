@@ -1,0 +1,36 @@
+"""Control: TRPO on the env's own reward, no demonstrations: the ceiling at this budget.
+
+`survival` is the floor (paid for staying alive); `oracle` is what the imitators' optimizer
+reaches when it is told the true reward. It runs exactly their TRPO settings
+(ImitationTRPOConfig, and a suite env's `trpo:` settings as they do), so when an imitator's
+bar is low, the gap to this one is the imitation's and the gap from this one to the expert
+is the optimizer's at this budget."""
+
+from __future__ import annotations
+
+from algorithms.common import ImitationTRPOConfig, PolicyAverage, report_each_update
+from bench.registry import Logger, Policy, Task, register
+from bench.rl.trpo import TRPO
+from bench.rl.trpo import train as trpo_train
+
+
+@register(
+    "oracle",
+    config=ImitationTRPOConfig,
+    inputs="none",
+    description="control: TRPO on the env's reward, no demos",
+    pixels=True,
+)
+def train(
+    task: Task, demos: None, budget: int, seed: int, logger: Logger, config: ImitationTRPOConfig
+) -> Policy:
+    average = PolicyAverage(config.policy_average)
+    learner = trpo_train(
+        task.make_env,
+        budget,
+        seed,
+        reward_fn=None,  # the env's reward: what the expert was trained on
+        callback=report_each_update(task, logger, average=average),
+        learner=TRPO(task.obs_shape, task.act_dim, config, seed, task.device),
+    )
+    return average.policy(learner, task)
