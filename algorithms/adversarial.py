@@ -71,6 +71,11 @@ class AdversarialConfig(ImitationTRPOConfig):
 
     def __post_init__(self) -> None:
         super().__post_init__()
+        for name in ("disc_steps", "disc_minibatch"):
+            if getattr(self, name) < 1:
+                raise ValueError(f"{name} must be >= 1, not {getattr(self, name)}")
+        if not (self.disc_lr > 0 and self.grad_penalty >= 0):
+            raise ValueError("need disc_lr > 0 and grad_penalty >= 0")
         if self.reward not in REWARDS:
             raise ValueError(
                 f"reward must be one of {', '.join(map(repr, REWARDS))}, not {self.reward!r}"

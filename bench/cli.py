@@ -19,12 +19,30 @@ if TYPE_CHECKING:
 
 
 def _experts_train(args: argparse.Namespace) -> int:
-    from bench import envs
-    from bench.experts import ExpertConfig, train_expert
+    from bench import envs, paths, validate
+    from bench.experts import ExpertConfig, ExpertError, train_expert
 
     envs.check_env_id(args.env_id)
     batch = {"n_envs": args.n_envs, "steps_per_env": args.steps_per_env}
-    cfg = ExpertConfig(**{**batch, **args.hyperparams})  # --hyperparams has the last word
+    settings = {**batch, **args.hyperparams}  # --hyperparams has the last word
+    try:
+        validate.check_types(ExpertConfig, settings)
+        cfg = ExpertConfig(**settings)
+    except (TypeError, ValueError) as e:
+        raise ExpertError(f"experts train: bad TRPO settings: {e}") from None
+    if args.steps < cfg.batch_size:
+        raise ExpertError(
+            f"experts train: --steps {args.steps} is less than one TRPO batch "
+            f"({cfg.n_envs} x {cfg.steps_per_env} = {cfg.batch_size} steps): nothing would train"
+        )
+    out = args.out or paths.expert_dir(args.env_id)
+    if out.exists() and not out.is_dir():
+        raise ExpertError(f"experts train: --out {out} is a file, not a folder")
+    if args.out is None and paths.has_expert(args.env_id) and not args.replace:
+        raise ExpertError(
+            f"experts train: {args.env_id} already has an expert in {out}: pass --out DIR to "
+            "train one beside it, or --replace to overwrite the shipped one"
+        )
     # Rebuilt from the parsed arguments, without --out: where it was saved is not how it was trained.
     command = ["bench", "experts", "train", args.env_id, "--steps", str(args.steps)]
     command += ["--seed", str(args.seed), "--n-envs", str(args.n_envs)]
@@ -382,6 +400,11 @@ def build_parser() -> argparse.ArgumentParser:
         type=Path,
         default=None,
         help="save here instead of results/experts/ENV_ID (to compare before replacing the shipped one)",
+    )
+    tr.add_argument(
+        "--replace",
+        action="store_true",
+        help="overwrite the expert in results/experts/ENV_ID (refused without this flag)",
     )
     tr.set_defaults(func=_experts_train)
     ls = esub.add_parser("list", help="show the available experts and their returns")

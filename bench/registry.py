@@ -44,6 +44,7 @@ from typing import Any, Literal, Protocol
 import gymnasium as gym
 import numpy as np
 
+from bench import validate
 from bench.pixels import PixelConfig
 
 Inputs = Literal["none", "states", "actions", "expert"]
@@ -125,6 +126,7 @@ class Algorithm:
                 f"algorithm {self.name!r} has no hyperparameter {', '.join(map(repr, unknown))}"
                 f" (known: {', '.join(sorted(known)) or 'none'})"
             )
+        validate.check_types(self.config, overrides)
         return self.config(**overrides)
 
 

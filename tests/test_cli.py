@@ -39,6 +39,18 @@ BAD_SUITES = {
     "wrong type": (GOOD.replace("budget: 2048", "budget: lots"), "budget"),
     "empty list": (GOOD.replace("demos: [1]", "demos: []"), "demos"),
     "yaml syntax": ("envs: [unclosed\n", "yaml"),
+    "a string for a list": (
+        GOOD.replace("[random, expert]", "[random, expert, {gaifo: {hidden: abc}}]"),
+        "hidden: input should be a valid array",
+    ),
+    "a value out of range": (
+        GOOD.replace("[random, expert]", "[random, expert, {gaifo: {disc_steps: -5}}]"),
+        "disc_steps must be >= 1",
+    ),
+    "a bool for an int": (
+        GOOD.replace("[random, expert]", "[random, expert, {survival: {n_envs: true}}]"),
+        "n_envs: expected int",
+    ),
 }
 
 
@@ -112,3 +124,31 @@ def test_expert_hyperparams_are_checked_before_training(hyperparams, message, tm
     )
     assert out.returncode == 2 and message in out.stderr
     assert not (tmp_path / "x").exists()
+
+
+SHIPPED = Path(__file__).resolve().parent.parent / "results" / "experts" / PENDULUM
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        ([], "already has an expert"),  # the shipped one: only --out or --replace
+        (["--replace", "--steps", "2000"], "less than one TRPO batch"),
+        (["--replace", "--n-envs", "0"], "n_envs must be >= 1"),
+        (["--replace", "--hyperparams", '{"gamma": 2}'], "bad TRPO settings"),
+        (["--replace", "--hyperparams", '{"hidden": "wide"}'], "bad TRPO settings"),
+    ],
+)
+def test_experts_train_never_damages_the_shipped_expert(args, message, cli):
+    before = snapshot(SHIPPED)
+    out = cli("experts", "train", PENDULUM, "--steps", "4096", *args)
+    assert out.returncode == 2, out.stderr
+    assert message in out.stderr and len(out.stderr.strip().splitlines()) == 1
+    assert snapshot(SHIPPED) == before
+
+
+def test_experts_train_refuses_a_file_as_its_folder(tmp_path, cli):
+    (tmp_path / "file").write_text("mine")
+    out = cli("experts", "train", PENDULUM, "--steps", "4096", "--out", str(tmp_path / "file"))
+    assert out.returncode == 2 and "is a file" in out.stderr
+    assert (tmp_path / "file").read_text() == "mine"
