@@ -17,7 +17,7 @@ import json
 from collections.abc import Iterable
 from pathlib import Path
 
-from bench import store
+from bench import policies, store
 from bench.types import TrialResult, TrialSpec
 
 
@@ -51,6 +51,9 @@ def reuse(
             continue
         path, record = match
         origin = record.copied_from or str(path)  # a copy of a copy names the run itself
+        saved = policies.path(path.parent.parent, record.trial_id)
+        if saved.is_file():  # the policy first: a record implies its policy
+            policies.write(results_dir, spec.trial_id, saved.read_bytes())
         store.write(results_dir, dataclasses.replace(record, spec=spec, copied_from=origin))
         finished.add(spec.trial_id)
         copied += 1

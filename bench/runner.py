@@ -24,7 +24,7 @@ import numpy as np
 import torch
 from tqdm import tqdm
 
-from bench import demos, envs, experts, minari_io, registry, state_match, store
+from bench import demos, envs, experts, minari_io, policies, registry, state_match, store
 from bench.pixels import PixelConfig, VideoBeside
 from bench.rl.rollout import evaluate
 from bench.types import CurvePoint, TrialResult, TrialSpec
@@ -177,7 +177,7 @@ def run_trial(spec: TrialSpec, inputs: Any, device: str = "cpu") -> TrialResult:
     eval_seed = EVAL_SEED + 1000 * spec.seed
     eval_envs: list[gym.Env] = []
     logger = TrialLogger(eval_envs, eval_seed, every=max(1, spec.budget // CURVE_POINTS))
-    given = reference = distance = None
+    given = reference = distance = saved = None
     try:
         torch.manual_seed(spec.seed)
         algo = registry.get(spec.algorithm)
@@ -192,6 +192,7 @@ def run_trial(spec: TrialSpec, inputs: Any, device: str = "cpu") -> TrialResult:
             policy = algo.train(task, inputs, spec.budget, spec.seed, logger, config)
             visited: list[np.ndarray] | None = None if pixels(spec) else []
             returns = evaluate(policy, eval_envs, spec.eval_episodes, eval_seed, visited)
+            saved = None if algo.name == "expert" else policies.to_bytes(policy)
             distance = expert_distance(spec, visited) if visited else None
         if not np.all(np.isfinite(returns)):
             raise FloatingPointError("evaluation returned a non-finite return")
@@ -214,6 +215,7 @@ def run_trial(spec: TrialSpec, inputs: Any, device: str = "cpu") -> TrialResult:
         inputs=given,
         reference=reference,
         state_distance=distance,
+        policy=saved if status == "ok" else None,
     )
 
 
@@ -388,6 +390,8 @@ def run_suite(
                 n_jobs=jobs, return_as="generator_unordered", pre_dispatch="n_jobs"
             )
             for result in parallel(_jobs(todo, costs, device)):
+                if result.policy is not None:  # before the record: a record implies its policy
+                    policies.write(results_dir, result.trial_id, result.policy)
                 store.write(results_dir, result)
                 if result.status == "ok":
                     costs.observe(result.spec, result.wall_time)

@@ -60,7 +60,9 @@ def write(results_dir: str | Path, result: TrialResult) -> Path:
     folder = trials_dir(results_dir)
     folder.mkdir(parents=True, exist_ok=True)
     _remove_stale_tmp(folder)
-    text = json.dumps(_finite(dataclasses.asdict(result)), allow_nan=False, indent=1)
+    record = dataclasses.asdict(dataclasses.replace(result, policy=None))
+    del record["policy"]  # a file of its own (bench.policies)
+    text = json.dumps(_finite(record), allow_nan=False, indent=1)
     return atomic.write_text(record_path(results_dir, result.trial_id), text)
 
 

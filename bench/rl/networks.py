@@ -230,3 +230,26 @@ class DeterministicPolicy:
     def __call__(self, obs: np.ndarray) -> np.ndarray:
         mean = self.policy(torch.as_tensor(observation(obs)))
         return np.clip(mean.numpy(), self.low, self.high)
+
+    def state(self) -> dict:
+        """Everything needed to rebuild it, as tensors, numbers and lists (weights_only-safe)."""
+        norm = self.policy.norm
+        obs_shape = list(norm.shape) if isinstance(norm, PixelScale) else [norm.mean.numel()]
+        layers = [m for m in self.policy.mean_net.modules() if isinstance(m, nn.Linear)]
+        return {
+            "obs_shape": obs_shape,
+            "act_dim": layers[-1].out_features,
+            "hidden": [layer.out_features for layer in layers[:-1]],
+            "low": torch.from_numpy(self.low),
+            "high": torch.from_numpy(self.high),
+            "weights": self.policy.state_dict(),
+        }
+
+    @classmethod
+    def from_state(cls, state: dict) -> DeterministicPolicy:
+        shape = state["obs_shape"]
+        policy = GaussianPolicy(
+            shape[0] if len(shape) == 1 else tuple(shape), state["act_dim"], tuple(state["hidden"])
+        )
+        policy.load_state_dict(state["weights"])
+        return cls(policy, state["low"].numpy(), state["high"].numpy())

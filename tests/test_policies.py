@@ -1,0 +1,59 @@
+"""Each trial's final policy is kept beside its record and acts as it did when evaluated."""
+
+import pytest
+import torch
+
+from bench import policies, store
+from bench.reuse import reuse
+from bench.rl.rollout import evaluate
+from bench.runner import EVAL_SEED, make_env, run_suite
+from bench.suite import expand, load_suite
+
+PENDULUM = "InvertedPendulumBulletEnv-v0"
+
+pytestmark = pytest.mark.usefixtures("demo_cache")
+
+
+@pytest.fixture(scope="module")
+def finished(tmp_path_factory):
+    root = tmp_path_factory.mktemp("policies")
+    tiny = "{n_envs: 2, steps_per_env: 512}"
+    (root / "s.yaml").write_text(
+        f"name: keep\nenvs: {{{PENDULUM}: {{budget: 2048}}}}\ndemos: [1]\n"
+        f"algorithms: [random, expert, gaifo: {tiny}, survival: {tiny}, bco: {{pre_demo_steps: 512,"
+        " inverse_steps: 20, inverse_refit_steps: 10, bc_steps: 20}]\nseeds: 2\neval_episodes: 3\n"
+    )
+    specs = expand(load_suite(root / "s.yaml"))
+    assert run_suite(specs, root / "res", jobs=2, progress=False).failed == 0
+    return specs, root
+
+
+def test_a_saved_policy_reproduces_its_records_evaluation(finished):
+    specs, root = finished
+    learners = [s for s in specs if s.algorithm not in ("random", "expert")]
+    assert not any(
+        policies.path(root / "res", s.trial_id).exists() for s in specs if s not in learners
+    )
+    for spec in learners:
+        record = store.read(store.record_path(root / "res", spec.trial_id))
+        file = policies.path(root / "res", spec.trial_id)
+        assert torch.load(file, weights_only=True)["obs_shape"] == [5]
+        policy = policies.load(file)
+        seed = EVAL_SEED + 1000 * spec.seed
+        envs = [make_env(spec, seed + i, training=False) for i in range(spec.eval_episodes)]
+        assert evaluate(policy, envs, spec.eval_episodes, seed) == record.returns, spec.algorithm
+        for env in envs:
+            env.close()
+
+
+def test_reuse_copies_the_policy_with_the_record(finished):
+    specs, root = finished
+    (root / "t.yaml").write_text((root / "s.yaml").read_text().replace("name: keep", "name: other"))
+    others = expand(load_suite(root / "t.yaml"))
+    assert reuse(others, root / "copy", [root / "res"]) == len(others)
+    for mine, theirs in zip(specs, others, strict=True):
+        saved = policies.path(root / "res", mine.trial_id)
+        copied = policies.path(root / "copy", theirs.trial_id)
+        assert copied.exists() == saved.exists()
+        if saved.exists():
+            assert copied.read_bytes() == saved.read_bytes()
