@@ -57,3 +57,42 @@ def test_reuse_copies_the_policy_with_the_record(finished):
         assert copied.exists() == saved.exists()
         if saved.exists():
             assert copied.read_bytes() == saved.read_bytes()
+
+
+def test_a_video_has_a_panel_per_policy_and_a_frame_per_step(finished, tmp_path, cli):
+    import imageio.v3 as iio
+
+    _, root = finished
+    out = cli(
+        "video",
+        str(root / "res"),
+        "--out",
+        str(tmp_path / "v.gif"),
+        "--steps",
+        "20",
+        "--size",
+        "64",
+    )
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.split(": ", 1)[1].split(", ")[0] == "Expert 1.00"
+    frames = iio.imread(tmp_path / "v.gif")
+    panels = ["Expert", "GAIfO", "BCO", "Survival"]
+    assert [t.split()[0] for t in out.stdout.strip().split(": ", 1)[1].split(", ")] == panels
+    assert frames.shape[:3] == (21, 64 + 22, 64 * len(panels))  # start state + 20 steps
+    assert not (frames[0] == frames[-1]).all()  # the poles moved
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["--algorithm", "gail"], "no gail with seed 0"),
+        (["--demos", "7"], "no trials with 7 demos"),
+        (["--env", "HopperBulletEnv-v0"], "no trials of HopperBulletEnv-v0"),
+        (["--out", "v.png"], "must end in .gif or .mp4"),
+    ],
+)
+def test_a_video_of_nothing_is_one_line(finished, tmp_path, cli, args, message):
+    _, root = finished
+    out = cli("video", str(root / "res"), "--out", str(tmp_path / "v.gif"), *args)
+    assert out.returncode == 2 and message in out.stderr
+    assert len(out.stderr.strip().splitlines()) == 1
