@@ -76,7 +76,8 @@ def report_each_update(
     def on_update(steps: int, learner: TRPO, batch: Batch, info: dict[str, float]) -> None:
         noise = learner.policy.log_std.detach().exp().mean().item()
         trunk = {k: info[k] for k in ("trunk_kl", "trunk_step_frac") if k in info}  # frames only
-        logger.log(steps, **(stats or {}), kl=info["kl"], **trunk, policy_std=noise)
+        optimizer = {k: info[k] for k in ("kl", "vf_loss", "collect_s", "update_s") if k in info}
+        logger.log(steps, **(stats or {}), **optimizer, **trunk, policy_std=noise)
         if average is None:
             logger.checkpoint(steps, deterministic(learner, task))
         else:

@@ -18,6 +18,10 @@ if TYPE_CHECKING:
     import pandas as pd
 
 
+class UsageError(ValueError):
+    """A command-line argument that cannot work; the message is one line."""
+
+
 def _experts_train(args: argparse.Namespace) -> int:
     from bench import envs, paths, validate
     from bench.experts import ExpertConfig, ExpertError, train_expert
@@ -116,6 +120,8 @@ def _run(args: argparse.Namespace) -> int:
     results = Path(args.results) if args.results else Path("results") / suite.name
     backend = args.backend or suite.runner.backend
     jobs = args.jobs if args.jobs is not None else suite.runner.jobs
+    if args.tensorboard is not None and args.tensorboard.exists() and not args.tensorboard.is_dir():
+        raise UsageError(f"run: --tensorboard {args.tensorboard} is a file, not a folder")
     if args.estimate:
         return _estimate(specs, results, jobs)
     print(f"suite {suite.name}: {len(specs)} trials -> {results}/", file=sys.stderr)
@@ -132,6 +138,7 @@ def _run(args: argparse.Namespace) -> int:
         scheduler=args.scheduler,
         retry_failed=args.retry_failed,
         device=args.device,
+        tensorboard=args.tensorboard,
     )
     print(
         f"{summary.done} trials done, {summary.failed} failed, "
@@ -355,6 +362,13 @@ def build_parser() -> argparse.ArgumentParser:
         help="dask scheduler, e.g. tcp://10.0.0.1:8786 (dask backend)",
     )
     run.add_argument(
+        "--tensorboard",
+        metavar="DIR",
+        type=Path,
+        help="also write every trial's logged scalars there as TensorBoard events, live"
+        " (tensorboard --logdir DIR)",
+    )
+    run.add_argument(
         "--device", default="cpu", help="torch device for networks, e.g. cuda (default cpu)"
     )
     run.set_defaults(func=_run)
@@ -494,6 +508,7 @@ def _user_errors() -> tuple[type[Exception], ...]:
     from bench.video import VideoError
 
     return (
+        UsageError,
         VideoError,
         EnvError,
         SuiteError,

@@ -66,16 +66,45 @@ class TrialLogger:
     logs: dict[str, list[float]] = field(default_factory=dict)
     _next: int = 0
 
+    events: Any = None
+    """A TensorBoard SummaryWriter that gets every scalar as it is logged (None: records only)."""
+
     def checkpoint(self, env_steps: int, policy: registry.Policy) -> None:
         if env_steps >= self._next:
             rets = evaluate(policy, self.eval_envs, CURVE_EPISODES, self.eval_seed)
             self.curve.append(CurvePoint(int(env_steps), float(np.mean(rets))))
             self._next = env_steps + self.every
+            if self.events is not None:
+                self.events.add_scalar("eval/return", self.curve[-1].mean_return, int(env_steps))
 
     def log(self, env_steps: int, **scalars: float) -> None:
         self.logs.setdefault("env_steps", []).append(float(env_steps))
         for k, v in scalars.items():
             self.logs.setdefault(k, []).append(float(v))
+            if self.events is not None:
+                self.events.add_scalar(f"train/{k}", float(v), int(env_steps))
+
+
+def event_dir(root: str | Path, spec: TrialSpec) -> Path:
+    """Where a trial's TensorBoard events go under `root`: one run per trial, named so that
+    TensorBoard's run filter reads env/algorithm/demos/seed."""
+    return (
+        Path(root)
+        / spec.suite
+        / spec.env_id
+        / spec.shown
+        / f"{spec.n_demos}demos"
+        / f"seed{spec.seed}"
+    )
+
+
+def open_events(root: str | Path | None, spec: TrialSpec) -> Any:
+    """A SummaryWriter for the trial's events, or None without `root`."""
+    if root is None:
+        return None
+    from torch.utils.tensorboard import SummaryWriter
+
+    return SummaryWriter(str(event_dir(root, spec)), flush_secs=10)
 
 
 def versions() -> dict[str, str]:
@@ -169,8 +198,11 @@ def make_task(spec: TrialSpec, tally: list[int], device: str = "cpu") -> registr
     )
 
 
-def run_trial(spec: TrialSpec, inputs: Any, device: str = "cpu") -> TrialResult:
-    """Train `spec.algorithm` and evaluate it; never raises (a failure is a failed record)."""
+def run_trial(
+    spec: TrialSpec, inputs: Any, device: str = "cpu", tensorboard: str | Path | None = None
+) -> TrialResult:
+    """Train `spec.algorithm` and evaluate it; never raises (a failure is a failed record).
+    With `tensorboard`, every scalar it logs is also written there as it comes (`event_dir`)."""
     torch.set_num_threads(1)  # joblib workers share the cores: one thread each
     start = time.time()
     tally = [0]
@@ -178,7 +210,9 @@ def run_trial(spec: TrialSpec, inputs: Any, device: str = "cpu") -> TrialResult:
     eval_envs: list[gym.Env] = []
     logger = TrialLogger(eval_envs, eval_seed, every=max(1, spec.budget // CURVE_POINTS))
     given = reference = distance = saved = None
+    status, returns = "failed", []
     try:
+        logger.events = open_events(tensorboard, spec)
         torch.manual_seed(spec.seed)
         algo = registry.get(spec.algorithm)
         given = algo.inputs
@@ -202,6 +236,10 @@ def run_trial(spec: TrialSpec, inputs: Any, device: str = "cpu") -> TrialResult:
     finally:
         for env in eval_envs:
             env.close()
+        if logger.events is not None:
+            if status == "ok":
+                logger.events.add_scalar("eval/final_return", float(np.mean(returns)), tally[0])
+            logger.events.close()
     return TrialResult(
         spec=spec,
         status=status,
@@ -335,12 +373,14 @@ def estimate(specs: list[TrialSpec], records: Iterable[TrialResult]) -> list[Est
     return out
 
 
-def _jobs(specs: list[TrialSpec], costs: CostModel, device: str) -> Iterator:
+def _jobs(
+    specs: list[TrialSpec], costs: CostModel, device: str, tensorboard: str | Path | None = None
+) -> Iterator:
     remaining = list(specs)
     while remaining:  # a generator: the next trial is chosen (and loaded) as a worker frees up
         spec = max(remaining, key=costs.priority)  # first of equals: suite order
         remaining.remove(spec)
-        yield joblib.delayed(run_trial)(spec, trial_inputs(spec), device)
+        yield joblib.delayed(run_trial)(spec, trial_inputs(spec), device, tensorboard)
 
 
 def run_suite(
@@ -352,8 +392,10 @@ def run_suite(
     retry_failed: bool = False,
     device: str = "cpu",
     progress: bool = True,
+    tensorboard: str | Path | None = None,
 ) -> RunSummary:
-    """Run every pending trial in parallel, writing each record as it finishes."""
+    """Run every pending trial in parallel, writing each record as it finishes; with
+    `tensorboard`, each trial's scalars go there live as TensorBoard events."""
     records = list(store.scan(results_dir))
     todo = pending(specs, {r.trial_id: r.status for r in records}, retry_failed)
     skipped = len(specs) - len(todo)
@@ -389,7 +431,7 @@ def run_suite(
             parallel = joblib.Parallel(
                 n_jobs=jobs, return_as="generator_unordered", pre_dispatch="n_jobs"
             )
-            for result in parallel(_jobs(todo, costs, device)):
+            for result in parallel(_jobs(todo, costs, device, tensorboard)):
                 if result.policy is not None:  # before the record: a record implies its policy
                     policies.write(results_dir, result.trial_id, result.policy)
                 store.write(results_dir, result)

@@ -24,7 +24,8 @@ def finished(tmp_path_factory):
         " inverse_steps: 20, inverse_refit_steps: 10, bc_steps: 20}]\nseeds: 2\neval_episodes: 3\n"
     )
     specs = expand(load_suite(root / "s.yaml"))
-    assert run_suite(specs, root / "res", jobs=2, progress=False).failed == 0
+    summary = run_suite(specs, root / "res", jobs=2, progress=False, tensorboard=root / "tb")
+    assert summary.failed == 0
     return specs, root
 
 
@@ -96,3 +97,22 @@ def test_a_video_of_nothing_is_one_line(finished, tmp_path, cli, args, message):
     out = cli("video", str(root / "res"), "--out", str(tmp_path / "v.gif"), *args)
     assert out.returncode == 2 and message in out.stderr
     assert len(out.stderr.strip().splitlines()) == 1
+
+
+def test_every_logged_scalar_is_a_tensorboard_event(finished):
+    from tensorboard.backend.event_processing.event_accumulator import EventAccumulator
+
+    from bench.runner import event_dir
+
+    specs, root = finished
+    for spec in specs:
+        record = store.read(store.record_path(root / "res", spec.trial_id))
+        events = EventAccumulator(str(event_dir(root / "tb", spec)))
+        events.Reload()
+        tags = set(events.Tags()["scalars"])
+        assert {f"train/{k}" for k in record.logs if k != "env_steps"} <= tags, spec.algorithm
+        assert "eval/final_return" in tags
+        if spec.algorithm == "gaifo":
+            assert {"train/disc_acc_expert", "train/kl", "train/vf_loss", "eval/return"} <= tags
+            kl = [e.value for e in events.Scalars("train/kl")]
+            assert kl == pytest.approx(record.logs["kl"])
