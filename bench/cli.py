@@ -22,6 +22,44 @@ class UsageError(ValueError):
     """A command-line argument that cannot work; the message is one line."""
 
 
+class OneLineParser(argparse.ArgumentParser):
+    """argparse, but a bad argument is one line on stderr (no usage block), exit status 2."""
+
+    def error(self, message: str) -> None:  # type: ignore[override]
+        self.exit(2, f"{self.prog}: error: {message}\n")
+
+
+def at_least(low: int) -> Callable[[str], int]:
+    """argparse type: an int >= `low`."""
+
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"not an integer: {text!r}") from None
+        if value < low:
+            raise argparse.ArgumentTypeError(f"must be >= {low}, not {value}")
+        return value
+
+    return parse
+
+
+def jobs_count(text: str) -> int:
+    """argparse type: parallel jobs, >= 1, or -1 for every core."""
+    value = at_least(-1)(text)
+    if value == 0:
+        raise argparse.ArgumentTypeError("must be >= 1, or -1 for every core, not 0")
+    return value
+
+
+def folder(text: str) -> Path:
+    """argparse type: a folder to write into, which may not exist yet but is no file."""
+    path = Path(text)
+    if path.exists() and not path.is_dir():
+        raise argparse.ArgumentTypeError(f"{text} is a file, not a folder")
+    return path
+
+
 def _experts_train(args: argparse.Namespace) -> int:
     from bench import envs, paths, validate
     from bench.experts import ExpertConfig, ExpertError, train_expert
@@ -40,8 +78,6 @@ def _experts_train(args: argparse.Namespace) -> int:
             f"({cfg.n_envs} x {cfg.steps_per_env} = {cfg.batch_size} steps): nothing would train"
         )
     out = args.out or paths.expert_dir(args.env_id)
-    if out.exists() and not out.is_dir():
-        raise ExpertError(f"experts train: --out {out} is a file, not a folder")
     if args.out is None and paths.has_expert(args.env_id) and not args.replace:
         raise ExpertError(
             f"experts train: {args.env_id} already has an expert in {out}: pass --out DIR to "
@@ -112,6 +148,7 @@ def _experts_list(args: argparse.Namespace) -> int:
 
 
 def _run(args: argparse.Namespace) -> int:
+    from bench import store
     from bench.runner import run_suite
     from bench.suite import expand, load_suite, select
 
@@ -120,26 +157,25 @@ def _run(args: argparse.Namespace) -> int:
     results = Path(args.results) if args.results else Path("results") / suite.name
     backend = args.backend or suite.runner.backend
     jobs = args.jobs if args.jobs is not None else suite.runner.jobs
-    if args.tensorboard is not None and args.tensorboard.exists() and not args.tensorboard.is_dir():
-        raise UsageError(f"run: --tensorboard {args.tensorboard} is a file, not a folder")
     if args.estimate:
         return _estimate(specs, results, jobs)
-    print(f"suite {suite.name}: {len(specs)} trials -> {results}/", file=sys.stderr)
-    if args.reuse:
-        from bench.reuse import reuse
+    with store.claim(results):
+        print(f"suite {suite.name}: {len(specs)} trials -> {results}/", file=sys.stderr)
+        if args.reuse:
+            from bench.reuse import reuse
 
-        copied = reuse(specs, results, args.reuse)
-        print(f"{copied} finished trials copied from {', '.join(args.reuse)}", file=sys.stderr)
-    summary = run_suite(
-        specs,
-        results,
-        jobs=jobs,
-        backend=backend,
-        scheduler=args.scheduler,
-        retry_failed=args.retry_failed,
-        device=args.device,
-        tensorboard=args.tensorboard,
-    )
+            copied = reuse(specs, results, args.reuse)
+            print(f"{copied} finished trials copied from {', '.join(args.reuse)}", file=sys.stderr)
+        summary = run_suite(
+            specs,
+            results,
+            jobs=jobs,
+            backend=backend,
+            scheduler=args.scheduler,
+            retry_failed=args.retry_failed,
+            device=args.device,
+            tensorboard=args.tensorboard,
+        )
     print(
         f"{summary.done} trials done, {summary.failed} failed, "
         f"{summary.skipped} already finished (records in {results}/trials)"
@@ -274,8 +310,6 @@ def _video(args: argparse.Namespace) -> int:
 
     if not store.trials_dir(args.results).is_dir():
         raise FileNotFoundError(f"{args.results}: no trial records (no trials/ folder)")
-    if args.steps < 1 or args.size < 16 or args.fps < 1:
-        raise VideoError("video: need --steps >= 1, --size >= 16 and --fps >= 1")
     if args.out.suffix not in (".gif", ".mp4"):
         raise VideoError(f"video: --out must end in .gif or .mp4, not {args.out.name!r}")
     if args.out.is_dir():
@@ -307,7 +341,7 @@ def _list(args: argparse.Namespace) -> int:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+    parser = OneLineParser(
         prog="bench",
         description="ifo-bench: compare imitation-from-observation algorithms on PyBullet.",
     )
@@ -320,7 +354,10 @@ def build_parser() -> argparse.ArgumentParser:
     )
     run.add_argument("suite", help="path of a suite file, e.g. suites/quick.yaml")
     run.add_argument(
-        "--results", metavar="DIR", help="where records go (default results/<suite name>)"
+        "--results",
+        metavar="DIR",
+        type=folder,
+        help="where records go (default results/<suite name>)",
     )
     run.add_argument(
         "--env",
@@ -335,7 +372,7 @@ def build_parser() -> argparse.ArgumentParser:
         help="run only this algorithm's trials (repeatable)",
     )
     run.add_argument(
-        "--jobs", type=int, help="parallel trials (default: the suite's, else all cores)"
+        "--jobs", type=jobs_count, help="parallel trials (default: the suite's, else all cores)"
     )
     run.add_argument("--retry-failed", action="store_true", help="rerun trials recorded as failed")
     run.add_argument(
@@ -364,7 +401,7 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument(
         "--tensorboard",
         metavar="DIR",
-        type=Path,
+        type=folder,
         help="also write every trial's logged scalars there as TensorBoard events, live"
         " (tensorboard --logdir DIR)",
     )
@@ -391,11 +428,14 @@ def build_parser() -> argparse.ArgumentParser:
     )
     rep.add_argument("results_dir", help="e.g. results/ or results/quick")
     rep.add_argument(
-        "--out", metavar="DIR", help="report folder (default <suite dir>/report; one per suite)"
+        "--out",
+        metavar="DIR",
+        type=folder,
+        help="report folder (default <suite dir>/report; one per suite)",
     )
     rep.add_argument(
         "--reps",
-        type=int,
+        type=at_least(1),
         default=2000,
         metavar="N",
         help="bootstrap resamples per interval (default 2000)",
@@ -411,7 +451,11 @@ def build_parser() -> argparse.ArgumentParser:
     cmp.add_argument("run", help="a suite's results folder, e.g. runs/quick")
     cmp.add_argument("reference", help="the folder to compare against, e.g. results/quick")
     cmp.add_argument(
-        "--reps", type=int, default=2000, metavar="N", help="bootstrap resamples (default 2000)"
+        "--reps",
+        type=at_least(1),
+        default=2000,
+        metavar="N",
+        help="bootstrap resamples (default 2000)",
     )
     cmp.set_defaults(func=_compare)
 
@@ -423,12 +467,15 @@ def build_parser() -> argparse.ArgumentParser:
     tr = esub.add_parser("train", help="train a TRPO expert on the env reward and save it")
     tr.add_argument("env_id", help="gymnasium id, e.g. HopperBulletEnv-v0")
     tr.add_argument(
-        "--steps", type=int, default=1_000_000, help="env steps of training (default 1e6)"
+        "--steps", type=at_least(1), default=1_000_000, help="env steps of training (default 1e6)"
     )
-    tr.add_argument("--seed", type=int, default=0, help="training seed (default 0)")
-    tr.add_argument("--n-envs", type=int, default=8, help="envs per batch (default 8)")
+    tr.add_argument("--seed", type=at_least(0), default=0, help="training seed (default 0)")
+    tr.add_argument("--n-envs", type=at_least(1), default=8, help="envs per batch (default 8)")
     tr.add_argument(
-        "--steps-per-env", type=int, default=256, help="steps per env per update (default 256)"
+        "--steps-per-env",
+        type=at_least(1),
+        default=256,
+        help="steps per env per update (default 256)",
     )
     tr.add_argument(
         "--hyperparams",
@@ -438,7 +485,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     tr.add_argument(
         "--out",
-        type=Path,
+        type=folder,
         default=None,
         help="save here instead of results/experts/ENV_ID (to compare before replacing the shipped one)",
     )
@@ -469,10 +516,14 @@ def build_parser() -> argparse.ArgumentParser:
         help="a learner or label (repeatable; default all)",
     )
     vid.add_argument("--demos", type=int, help="demonstration count (default the largest run)")
-    vid.add_argument("--seed", type=int, default=0, help="which trials (default 0)")
-    vid.add_argument("--steps", type=int, default=300, help="env steps filmed (default 300)")
-    vid.add_argument("--size", type=int, default=200, help="panel side in pixels (default 200)")
-    vid.add_argument("--fps", type=int, default=30, help="frames per second (default 30)")
+    vid.add_argument("--seed", type=at_least(0), default=0, help="which trials (default 0)")
+    vid.add_argument(
+        "--steps", type=at_least(1), default=300, help="env steps filmed (default 300)"
+    )
+    vid.add_argument(
+        "--size", type=at_least(16), default=200, help="panel side in pixels (default 200)"
+    )
+    vid.add_argument("--fps", type=at_least(1), default=30, help="frames per second (default 30)")
     vid.set_defaults(func=_video)
 
     dem = sub.add_parser("demos", help="the expert demonstrations, in other formats")
@@ -485,7 +536,7 @@ def build_parser() -> argparse.ArgumentParser:
         " of a results folder as ref_min_score / ref_max_score.",
     )
     exp.add_argument("env_id", help="gymnasium id, e.g. HopperBulletEnv-v0")
-    exp.add_argument("dir", type=Path, help="Minari datasets folder (MINARI_DATASETS_PATH)")
+    exp.add_argument("dir", type=folder, help="Minari datasets folder (MINARI_DATASETS_PATH)")
     exp.add_argument(
         "--references",
         required=True,
@@ -504,11 +555,13 @@ def _user_errors() -> tuple[type[Exception], ...]:
     from bench.normalize import NormalizationError
     from bench.registry import RegistryError
     from bench.stats import ComparisonError
+    from bench.store import FolderBusy
     from bench.suite import SuiteError
     from bench.video import VideoError
 
     return (
         UsageError,
+        FolderBusy,
         VideoError,
         EnvError,
         SuiteError,

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
+import fcntl
 import json
 import math
 import os
@@ -45,6 +46,37 @@ TRIAL_COLUMNS = [
 ]
 CURVE_COLUMNS = ["trial_id", *SPEC_COLUMNS, "inputs", "env_steps", "return"]
 LOG_COLUMNS = ["trial_id", *SPEC_COLUMNS, "key", "index", "value"]
+
+
+LOCK = ".lock"
+"""A results folder's lock file: held (flock) by the one `bench run` writing into it."""
+
+
+class FolderBusy(RuntimeError):
+    """A results folder that cannot be written now; the message is one line."""
+
+
+@contextlib.contextmanager
+def claim(results_dir: str | Path) -> Iterator[None]:
+    """Hold `results_dir` for one run: a second run into it is refused (FolderBusy) rather than
+    running every trial twice. The lock is the kernel's (flock), so a killed run leaves none
+    behind. Also where an unwritable folder is found, before any trial trains."""
+    folder = Path(results_dir)
+    try:
+        trials_dir(folder).mkdir(parents=True, exist_ok=True)
+        handle = open(folder / LOCK, "a")  # noqa: SIM115 - held for the whole run
+    except OSError as e:
+        raise FolderBusy(f"cannot write results into {folder}: {e.strerror or e}") from None
+    try:
+        try:
+            fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            raise FolderBusy(
+                f"{folder} is being written by another bench run; wait for it, or use --results"
+            ) from None
+        yield
+    finally:
+        handle.close()
 
 
 def trials_dir(results_dir: str | Path) -> Path:

@@ -134,7 +134,7 @@ SHIPPED = Path(__file__).resolve().parent.parent / "results" / "experts" / PENDU
     [
         ([], "already has an expert"),  # the shipped one: only --out or --replace
         (["--replace", "--steps", "2000"], "less than one TRPO batch"),
-        (["--replace", "--n-envs", "0"], "n_envs must be >= 1"),
+        (["--replace", "--hyperparams", '{"n_envs": 0}'], "n_envs must be >= 1"),
         (["--replace", "--hyperparams", '{"gamma": 2}'], "bad TRPO settings"),
         (["--replace", "--hyperparams", '{"hidden": "wide"}'], "bad TRPO settings"),
     ],
@@ -152,3 +152,72 @@ def test_experts_train_refuses_a_file_as_its_folder(tmp_path, cli):
     out = cli("experts", "train", PENDULUM, "--steps", "4096", "--out", str(tmp_path / "file"))
     assert out.returncode == 2 and "is a file" in out.stderr
     assert (tmp_path / "file").read_text() == "mine"
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["run", "{suite}", "--jobs", "0"], "--jobs: must be >= 1, or -1"),
+        (["run", "{suite}", "--results", "{file}"], "is a file, not a folder"),
+        (["run", "{suite}", "--results", "{file}/under"], "cannot write results into"),
+        (["run", "{suite}", "--tensorboard", "{file}"], "is a file, not a folder"),
+        (["report", "{results}", "--reps", "0"], "--reps: must be >= 1, not 0"),
+        (["report", "{results}", "--out", "{file}"], "is a file, not a folder"),
+        (["compare", "{results}", "{results}", "--reps", "-3"], "must be >= 1"),
+        (["demos", "export", PENDULUM, "{file}", "--references", "{results}"], "is a file"),
+        (["experts", "train", PENDULUM, "--n-envs", "0"], "--n-envs: must be >= 1"),
+        (["video", "{results}", "--out", "{file}.gif", "--steps", "0"], "--steps: must be >= 1"),
+    ],
+)
+def test_unusable_arguments_are_one_line_before_any_work(
+    args, message, finished_results, tmp_path, cli
+):
+    (tmp_path / "good.yaml").write_text("name: good\n" + GOOD)
+    (tmp_path / "file").write_text("mine")
+    before = snapshot(finished_results)
+    paths = {
+        "suite": tmp_path / "good.yaml",
+        "file": tmp_path / "file",
+        "results": finished_results,
+    }
+    out = cli(*(a.format(**paths) for a in args))
+    assert out.returncode == 2, out.stderr
+    assert message in out.stderr and len(out.stderr.strip().splitlines()) == 1, out.stderr
+    assert snapshot(finished_results) == before and (tmp_path / "file").read_text() == "mine"
+
+
+def test_a_second_run_into_a_busy_folder_is_refused(tmp_path, cli):
+    import subprocess
+    import sys
+    import time
+
+    (tmp_path / "slow.yaml").write_text(
+        f"name: slow\nenvs: {{{PENDULUM}: {{budget: 200000}}}}\ndemos: [1]\n"
+        "algorithms: [survival]\nseeds: 1\n"
+    )
+    first = subprocess.Popen(
+        [
+            sys.executable,
+            "-m",
+            "bench.cli",
+            "run",
+            str(tmp_path / "slow.yaml"),
+            "--results",
+            str(tmp_path / "res"),
+            "--jobs",
+            "1",
+        ],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    try:
+        deadline = time.time() + 60
+        while first.stderr.readline() and time.time() < deadline:  # its first line: it has begun
+            break
+        second = cli("run", str(tmp_path / "slow.yaml"), "--results", str(tmp_path / "res"))
+        assert second.returncode == 2 and "being written by another bench run" in second.stderr
+    finally:
+        first.kill()
+        first.wait()
+    assert not list((tmp_path / "res" / "trials").glob("*.json"))  # the second ran nothing
