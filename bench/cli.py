@@ -8,6 +8,7 @@ import json
 import os
 import shlex
 import sys
+import warnings
 from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -221,9 +222,20 @@ def _plot(args: argparse.Namespace) -> int:
 
     dirs = store.suite_dirs(args.results_dir)
     for d in dirs:
-        df = normalize.normalize(store.load(d))
-        out = Path(args.out) if args.out and len(dirs) == 1 else d / "figure2.png"
-        written = plot.figure2(df, out)
+        trials = store.load(d)
+        if trials.empty:
+            raise FileNotFoundError(f"{store.trials_dir(d)}: no readable trial record")
+        df = normalize.normalize(trials)
+        left_out = df[df["status"] != "ok"]
+        if len(left_out):
+            kinds = ", ".join(f"{n} {s}" for s, n in left_out["status"].value_counts().items())
+            print(f"{d}: {len(left_out)} records left out ({kinds})", file=sys.stderr)
+        written = []
+        if plot.algorithm_order(df["algorithm"].unique()):
+            out = Path(args.out) if args.out and len(dirs) == 1 else d / "figure2.png"
+            written = plot.figure2(df, out)
+        else:
+            print(f"{d}: no learner's records, only references: no figure", file=sys.stderr)
         plot.write_summary_csv(df, d / "summary.csv")
         print(f"## {d}\n\n{plot.summary_table(df)}\n")
         print("wrote " + ", ".join(str(p) for p in [*written, d / "summary.csv"]) + "\n")
@@ -575,7 +587,12 @@ def _user_errors() -> tuple[type[Exception], ...]:
     )
 
 
+def _one_line_warning(message, category, filename, lineno, line=None) -> str:
+    return f"bench: warning: {message}\n"
+
+
 def main(argv: list[str] | None = None) -> int:
+    warnings.formatwarning = _one_line_warning  # a line each, not the source line under it
     args = build_parser().parse_args(argv)
     func: Callable[[argparse.Namespace], int] = args.func
     try:

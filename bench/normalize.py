@@ -63,6 +63,26 @@ def check_one_record_per_seed(df: pd.DataFrame) -> None:
         )
 
 
+def check_one_suite(df: pd.DataFrame) -> None:
+    """Raise NormalizationError unless the records are one suite's: one suite name, and one
+    budget per env. A record copied in from another suite (`--reuse` renames what it copies)
+    or run at another budget would otherwise be averaged in with the rest."""
+    for column, within in (("suite", None), ("budget", "env_id")):
+        if column not in df:
+            continue
+        groups = df.groupby(within) if within else [(None, df)]
+        for key, rows in groups:
+            counts = rows[column].value_counts()
+            if len(counts) > 1:
+                odd = rows[rows[column] != counts.index[0]].iloc[0]
+                where = f"{key}: " if key is not None else ""
+                raise NormalizationError(
+                    f"{where}records of {len(counts)} {column}s in one results folder "
+                    f"({', '.join(f'{v} x{n}' for v, n in counts.items())}), e.g. trial "
+                    f"{odd.get('trial_id', '?')}; a folder holds one suite's trials"
+                )
+
+
 def normalize(df: pd.DataFrame, references: pd.DataFrame | None = None) -> pd.DataFrame:
     """`df` plus a `normalized` column (NaN where `return` is NaN, e.g. failed trials).
 
@@ -71,7 +91,8 @@ def normalize(df: pd.DataFrame, references: pd.DataFrame | None = None) -> pd.Da
     Raises NormalizationError if an env of `df` lacks a reference, or if its
     expert does no better than random (the scale would be meaningless).
     """
-    if references is None:  # trials, not curves: one record per cell and seed
+    if references is None:  # trials, not curves: one suite's, one record per cell and seed
+        check_one_suite(df)
         check_one_record_per_seed(df)
     refs = reference_returns(df) if references is None else references
     refs = refs.set_index("env_id")

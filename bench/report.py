@@ -121,7 +121,7 @@ def write_report(results_dir: Path, out_dir: Path | None = None, reps: int = 200
     out_dir = results_dir / "report" if out_dir is None else Path(out_dir)
     trials = store.load(results_dir)
     if trials.empty:
-        raise FileNotFoundError(f"no trial records in {store.trials_dir(results_dir)}")
+        raise FileNotFoundError(f"{store.trials_dir(results_dir)}: no readable trial record")
     df = normalize(trials)
     starred = plot.action_users(trials)
     out_dir.mkdir(parents=True, exist_ok=True)

@@ -48,6 +48,8 @@ CURVE_COLUMNS = ["trial_id", *SPEC_COLUMNS, "inputs", "env_steps", "return"]
 LOG_COLUMNS = ["trial_id", *SPEC_COLUMNS, "key", "index", "value"]
 
 
+NO_RETURN = "no finite return"
+"""The status `load` gives a record marked ok whose returns are missing, NaN or infinite."""
 LOCK = ".lock"
 """A results folder's lock file: held (flock) by the one `bench run` writing into it."""
 
@@ -207,11 +209,14 @@ def _spec_row(r: TrialResult) -> dict[str, Any]:
 
 def _trial_row(r: TrialResult) -> dict[str, Any]:
     returns = np.asarray(r.returns, dtype=float)
-    ok = r.status == "ok" and returns.size > 0
+    ok = r.status == "ok" and returns.size > 0 and bool(np.isfinite(returns).all())
+    # An "ok" record without a finite return (edited, or from a broken writer) is no score:
+    # it is listed with the failed ones rather than dropped without a word.
+    status = r.status if ok or r.status != "ok" else NO_RETURN
     return {
         **_spec_row(r),
         "inputs": r.inputs,
-        "status": r.status,
+        "status": status,
         "return": float(returns.mean()) if ok else math.nan,
         "return_std": float(returns.std()) if ok else math.nan,
         "env_steps": r.env_steps,

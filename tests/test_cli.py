@@ -221,3 +221,55 @@ def test_a_second_run_into_a_busy_folder_is_refused(tmp_path, cli):
         first.kill()
         first.wait()
     assert not list((tmp_path / "res" / "trials").glob("*.json"))  # the second ran nothing
+
+
+def _copy(results: Path, to: Path) -> Path:
+    import shutil
+
+    return Path(shutil.copytree(results, to))
+
+
+def test_plot_of_references_only_writes_the_table_without_a_figure(finished_results, tmp_path, cli):
+    results = _copy(finished_results, tmp_path / "res")
+    out = cli("plot", str(results))
+    assert out.returncode == 0, out.stderr
+    assert "only references: no figure" in out.stderr and (results / "summary.csv").is_file()
+    assert not (results / "figure2.png").exists()
+
+
+def test_plot_and_report_of_unreadable_records_are_one_line(finished_results, tmp_path, cli):
+    results = _copy(finished_results, tmp_path / "res")
+    for record in (results / "trials").glob("*.json"):
+        record.write_text(record.read_text()[:40])  # truncated
+    for command in ("plot", "report"):
+        out = cli(command, str(results))
+        assert out.returncode == 2 and "no readable trial record" in out.stderr.splitlines()[-1]
+        assert "Traceback" not in out.stderr
+
+
+def test_a_record_of_another_budget_is_refused_not_averaged_in(finished_results, tmp_path, cli):
+    import json
+
+    results = _copy(finished_results, tmp_path / "res")
+    record = next((results / "trials").glob("*.json"))
+    raw = json.loads(record.read_text())
+    raw["spec"]["budget"] *= 10
+    (results / "trials" / "foreign.json").write_text(json.dumps(raw))
+    for command in ("plot", "report"):
+        out = cli(command, str(results))
+        assert out.returncode == 2, out.stderr
+        assert "2 budgets in one results folder" in out.stderr.splitlines()[-1]
+
+
+def test_an_ok_record_without_a_finite_return_is_reported(finished_results, tmp_path, cli):
+    import json
+
+    results = _copy(finished_results, tmp_path / "res")
+    from bench.types import TrialSpec
+
+    raw = json.loads(next((results / "trials").glob("*.json")).read_text())
+    raw["spec"]["seed"], raw["returns"] = 7, [None, None]  # a second seed, with no return
+    trial_id = TrialSpec(**raw["spec"]).trial_id
+    (results / "trials" / f"{trial_id}.json").write_text(json.dumps(raw))
+    out = cli("plot", str(results))
+    assert out.returncode == 0 and "1 records left out (1 no finite return)" in out.stderr
