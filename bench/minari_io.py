@@ -159,25 +159,36 @@ def check_env(dataset, source: str, env_id: str) -> None:
     )
 
 
+def episodes(dataset) -> list:
+    """Every episode of `dataset`, read now; DatasetError (one line) where its data cannot be
+    read (a truncated or corrupted HDF5 file opens on its metadata alone)."""
+    try:
+        with _quiet():
+            return list(dataset.iterate_episodes())
+    except Exception as e:  # h5py raises OSError, KeyError, ValueError...
+        where = getattr(dataset.storage, "data_path", "the dataset")
+        raise DatasetError(f"{where}: episodes cannot be read ({_one_line(e)})") from None
+
+
 def has_actions(dataset) -> bool:
     """False when the recorded actions are missing (NaN): a state-only dataset."""
-    return all(np.isfinite(ep.actions).all() for ep in dataset.iterate_episodes())
+    return all(np.isfinite(ep.actions).all() for ep in episodes(dataset))
 
 
 def to_pool(dataset, env_id: str) -> dict[str, np.ndarray]:
     """The dataset's episodes as a demonstration pool, laid out as `demos.record` writes one
     (actions NaN where the dataset has none)."""
-    episodes = list(dataset.iterate_episodes())
-    obs = [np.asarray(ep.observations, np.float32) for ep in episodes]
+    read = episodes(dataset)
+    obs = [np.asarray(ep.observations, np.float32) for ep in read]
     return demos.pool_arrays(
         env_id,
         obs,
         [
             np.asarray(ep.actions, np.float32).reshape(len(o) - 1, -1)
-            for ep, o in zip(episodes, obs, strict=True)
+            for ep, o in zip(read, obs, strict=True)
         ],
-        [np.asarray(ep.rewards, np.float32) for ep in episodes],
-        [bool(ep.terminations[-1]) for ep in episodes],
+        [np.asarray(ep.rewards, np.float32) for ep in read],
+        [bool(ep.terminations[-1]) for ep in read],
     )
 
 
@@ -187,7 +198,7 @@ def expert_reference(dataset) -> tuple[list[float], str]:
     score = dataset.storage.metadata.get("ref_max_score")
     if score is not None:
         return [float(score)], "dataset ref_max_score"
-    returns = [float(np.sum(ep.rewards)) for ep in dataset.iterate_episodes()]
+    returns = [float(np.sum(ep.rewards)) for ep in episodes(dataset)]
     return returns, f"returns of the dataset's {len(returns)} episodes"
 
 
@@ -195,19 +206,27 @@ def _one_line(error: Exception) -> str:
     return " ".join(str(error).split()) or type(error).__name__
 
 
-def ensure_pool(source: str, env_id: str) -> Path:
-    """Path of the dataset's episodes converted to a demonstration pool (cached: converted once
-    per dataset, keyed by where it is and its size)."""
+def content_digest(dataset) -> str:
+    """sha256 of every file of the dataset's data folder (names and bytes): the same content
+    wherever it lies, and another as soon as one byte is rewritten in place."""
     import hashlib
 
+    digest = hashlib.sha256()
+    folder = Path(dataset.storage.data_path)
+    for file in sorted(p for p in folder.rglob("*") if p.is_file()):
+        digest.update(str(file.relative_to(folder)).encode())
+        with open(file, "rb") as f:
+            digest.update(hashlib.file_digest(f, "sha256").digest())
+    return digest.hexdigest()
+
+
+def ensure_pool(source: str, env_id: str) -> Path:
+    """Path of the dataset's episodes converted to a demonstration pool (cached: converted once
+    per dataset content, so a dataset rewritten in place is converted again)."""
     from bench import paths
 
     dataset = open_dataset(source)
-    where = (
-        str(Path(source).expanduser().resolve()) if Path(source).expanduser().exists() else source
-    )
-    key = f"{where}|{dataset.total_episodes}|{dataset.total_steps}"
-    digest = hashlib.sha256(key.encode()).hexdigest()[:12]
+    digest = content_digest(dataset)[:12]
     path = paths.CACHE_DIR / "datasets" / f"{env_id}-{digest}-{demos.FORMAT}.npz"
     if not path.exists():
         check_env(dataset, source, env_id)

@@ -1,6 +1,7 @@
 """Export of the expert pool as a Minari dataset: what Minari reads back is the pool."""
 
 import warnings
+from pathlib import Path
 
 import minari
 import numpy as np
@@ -148,3 +149,34 @@ def test_dataset_of_another_env_is_one_line(exported, tmp_path, capsys):
     err = capsys.readouterr().err.strip()
     assert "\n" not in err and f"was recorded in {PENDULUM}" in err
     assert not (tmp_path / "res").exists()
+
+
+def test_a_dataset_rewritten_in_place_is_converted_again(exported, tmp_path):
+    import shutil
+
+    source = Path(minari.storage.get_dataset_path(exported[0].id))
+    folder = tmp_path / "mine"
+    shutil.copytree(source, folder)
+    before = minari_io.ensure_pool(str(folder), PENDULUM)
+    other = Path(state_only_copy(exported[0], tmp_path / "other"))
+    shutil.rmtree(folder)
+    shutil.copytree(other, folder)  # same place, same episode count, other content
+    after = minari_io.ensure_pool(str(folder), PENDULUM)
+    assert after != before
+    assert (
+        np.isnan(np.load(after)["actions"]).all() and not np.isnan(np.load(before)["actions"]).any()
+    )
+
+
+def test_a_truncated_dataset_is_one_line_before_any_trial(exported, tmp_path, capsys):
+    import shutil
+
+    folder = tmp_path / "broken"
+    shutil.copytree(minari.storage.get_dataset_path(exported[0].id), folder)
+    data = next(folder.rglob("*.hdf5"))
+    data.write_bytes(data.read_bytes()[: data.stat().st_size // 2])
+    suite = write_suite(tmp_path, str(folder), "random, expert, gaifo, gail")
+    assert cli.main(["run", str(suite), "--results", str(tmp_path / "res")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "\n" not in err and str(folder) in err and "Traceback" not in err
+    assert not list((tmp_path / "res").glob("trials/*.json"))
