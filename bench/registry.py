@@ -37,6 +37,7 @@ from __future__ import annotations
 
 import dataclasses
 import importlib.metadata
+import warnings
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any, Literal, Protocol
@@ -156,6 +157,12 @@ def register(
 
     def wrap(train: TrainFn) -> TrainFn:
         doc = description or (train.__doc__ or "").strip().split("\n")[0]
+        taken = _ALGORITHMS.get(name)
+        if taken is not None and _origin(taken.train) != _origin(train):
+            raise RegistryError(
+                f"algorithm name {name!r} is registered twice: by {_origin(taken.train)} and by "
+                f"{_origin(train)}; rename one"
+            )
         _ALGORITHMS[name] = Algorithm(name, train, config, inputs, doc, pixels, video_reward)
         return train
 
@@ -171,7 +178,21 @@ def _load_all() -> None:
         return
     _loaded = True
     for ep in importlib.metadata.entry_points(group=ENTRY_POINT_GROUP):
-        ep.load()
+        try:
+            ep.load()
+        except RegistryError:
+            raise  # a name clash: which one a suite meant cannot be guessed
+        except Exception as e:  # a broken plugin must not take every other algorithm down
+            warnings.warn(
+                f"plugin {ep.name!r} ({ep.value}) failed to import and is skipped: "
+                f"{type(e).__name__}: {e}",
+                stacklevel=2,
+            )
+
+
+def _origin(train: TrainFn) -> str:
+    """Where a train function is defined: module and name."""
+    return f"{train.__module__}.{getattr(train, '__qualname__', train)}"
 
 
 def get(name: str) -> Algorithm:

@@ -442,7 +442,7 @@ def run_suite(
                     failed += 1
                     last = (result.traceback or "").strip().splitlines()[-1:] or ["?"]
                     bar.write(
-                        f"failed: {result.spec.env_id} {result.spec.algorithm} seed {result.spec.seed}: {last[0]}"
+                        f"failed: {result.spec.env_id} {result.spec.shown} seed {result.spec.seed}: {last[0]}"
                     )
                 bar.update(1)
                 bar.set_postfix(done=done, failed=failed)
