@@ -155,6 +155,7 @@ def clone(
     config=BCOConfig,
     inputs="states",
     description="BCO(alpha): inverse dynamics labels the demos, then behavioral cloning",
+    min_budget=lambda config: config.pre_demo_steps,
 )
 def train(
     task: Task, demos: Demos, budget: int, seed: int, logger: Logger, config: BCOConfig

@@ -30,6 +30,11 @@ class ImitationTRPOConfig(TRPOConfig):
     to 0 (GAIfO) and from 5 of 20 to 2 (GAIL) with 0.9."""
 
 
+def one_batch(config: TRPOConfig) -> int:
+    """A TRPO learner's smallest budget: one batch (`register(..., min_budget=one_batch)`)."""
+    return config.batch_size
+
+
 def deterministic(learner: TRPO, task: Task) -> DeterministicPolicy:
     """A snapshot of the learner's mean policy, clipped to the task's action bounds."""
     return DeterministicPolicy(learner.policy, task.action_low, task.action_high)

@@ -5,6 +5,7 @@ from __future__ import annotations
 import torch
 
 from algorithms.adversarial import AdversarialConfig, train_adversarial
+from algorithms.common import one_batch
 from bench.registry import Logger, Policy, Task, register
 from bench.types import Demos
 
@@ -21,6 +22,7 @@ def state_transition(s: torch.Tensor, a: torch.Tensor, s_next: torch.Tensor) -> 
     description="GAIfO: discriminator on (s, s')",
     pixels=True,
     video_reward=True,
+    min_budget=one_batch,
 )
 def train(
     task: Task, demos: Demos, budget: int, seed: int, logger: Logger, config: AdversarialConfig

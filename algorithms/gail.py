@@ -5,6 +5,7 @@ from __future__ import annotations
 import torch
 
 from algorithms.adversarial import AdversarialConfig, train_adversarial
+from algorithms.common import one_batch
 from bench.registry import Logger, Policy, Task, register
 from bench.types import ActionDemos
 
@@ -21,6 +22,7 @@ def state_action(s: torch.Tensor, a: torch.Tensor, s_next: torch.Tensor) -> torc
     description="GAIL: discriminator on (s, a)",
     pixels=True,
     video_reward=True,
+    min_budget=one_batch,
 )
 def train(
     task: Task,

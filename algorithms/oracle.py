@@ -8,7 +8,7 @@ is the optimizer's at this budget."""
 
 from __future__ import annotations
 
-from algorithms.common import ImitationTRPOConfig, PolicyAverage, report_each_update
+from algorithms.common import ImitationTRPOConfig, PolicyAverage, one_batch, report_each_update
 from bench.registry import Logger, Policy, Task, register
 from bench.rl.trpo import TRPO
 from bench.rl.trpo import train as trpo_train
@@ -20,6 +20,7 @@ from bench.rl.trpo import train as trpo_train
     inputs="none",
     description="control: TRPO on the env's reward, no demos",
     pixels=True,
+    min_budget=one_batch,
 )
 def train(
     task: Task, demos: None, budget: int, seed: int, logger: Logger, config: ImitationTRPOConfig

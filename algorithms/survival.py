@@ -9,6 +9,7 @@ import numpy as np
 from algorithms.common import (
     ImitationTRPOConfig,
     PolicyAverage,
+    one_batch,
     report_each_update,
 )
 from bench.registry import Logger, Policy, Task, register
@@ -22,6 +23,7 @@ from bench.rl.trpo import train as trpo_train
     inputs="none",
     description="control: TRPO on +1 per step, no demos",
     pixels=True,
+    min_budget=one_batch,
 )
 def train(
     task: Task, demos: None, budget: int, seed: int, logger: Logger, config: ImitationTRPOConfig

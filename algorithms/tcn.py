@@ -31,7 +31,7 @@ import torch
 import torch.nn.functional as F
 from torch import nn
 
-from algorithms.common import deterministic, report_each_update
+from algorithms.common import deterministic, one_batch, report_each_update
 from bench.registry import Logger, Policy, Task, register
 from bench.rl.networks import ObsShape, body, normalizer
 from bench.rl.rollout import Batch
@@ -157,6 +157,7 @@ def demo_targets(embed: Embedding, demos: Demos) -> torch.Tensor:
     description="TCN: TRPO on distance to the demos in a time-contrastive embedding",
     pixels=True,
     video_reward=True,
+    min_budget=one_batch,
 )
 def train(
     task: Task, demos: Demos, budget: int, seed: int, logger: Logger, config: TCNConfig

@@ -113,6 +113,9 @@ class Algorithm:
     """It can learn from rendered frames (a suite env with `observation: pixels`)."""
     video_reward: bool = False
     """It can act on states and imitate video (a suite env with `observation: video-reward`)."""
+    min_budget: Callable[[Any], int] | None = None
+    """min_budget(config) -> the fewest env steps a trial can train with (e.g. one TRPO batch);
+    a suite that gives less is refused at load."""
 
     @property
     def uses_actions(self) -> bool:
@@ -148,6 +151,7 @@ def register(
     description: str = "",
     pixels: bool = False,
     video_reward: bool = False,
+    min_budget: Callable[[Any], int] | None = None,
 ) -> Callable[[TrainFn], TrainFn]:
     """Decorator: register `train` under `name`."""
     if inputs not in ("none", "states", "actions", "expert"):
@@ -163,7 +167,9 @@ def register(
                 f"algorithm name {name!r} is registered twice: by {_origin(taken.train)} and by "
                 f"{_origin(train)}; rename one"
             )
-        _ALGORITHMS[name] = Algorithm(name, train, config, inputs, doc, pixels, video_reward)
+        _ALGORITHMS[name] = Algorithm(
+            name, train, config, inputs, doc, pixels, video_reward, min_budget
+        )
         return train
 
     return wrap

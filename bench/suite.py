@@ -314,7 +314,25 @@ def _suite(raw: Any, default_name: str) -> Suite:
                 f"no trained expert in {paths.expert_dir(env.env_id)} (every suite needs one:"
                 " it is the 1.0 of normalized scores; train it with `bench experts`)",
             )
-    return Suite(name, envs, demos, algorithms, seeds, eval_episodes, runner)
+    suite = Suite(name, envs, demos, algorithms, seeds, eval_episodes, runner)
+    _check_budgets(suite)
+    return suite
+
+
+def _check_budgets(suite: Suite) -> None:
+    """Each trial's budget covers what its algorithm needs before it can learn anything (one
+    TRPO batch, say), asked of the algorithm (`register(..., min_budget=)`): a trial that
+    cannot train is refused at load, not recorded as failed an hour into the run."""
+    for spec in expand(suite):
+        algo = registry.get(spec.algorithm)
+        if algo.min_budget is None:
+            continue
+        need = algo.min_budget(algo.make_config(spec.hyperparams))
+        if spec.budget < need:
+            raise _Invalid(
+                f"envs.{spec.env_id}.budget",
+                f"{spec.budget} env steps are fewer than {spec.shown} needs to train ({need})",
+            )
 
 
 def _check_video_learners(env: EnvSettings, algorithms: tuple) -> None:

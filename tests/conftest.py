@@ -62,3 +62,21 @@ def on_dask():
             )
 
     return run
+
+
+@pytest.fixture()
+def install_plugin():
+    """`install_plugin(root, name, entry_points, modules)`: see `_install_plugin`."""
+    return _install_plugin
+
+
+def _install_plugin(root, name: str, entry_points: str, modules: dict[str, str]) -> dict:
+    """A plugin distribution as pip leaves one (a .dist-info with its entry points) under
+    `root`, and the environment that puts it on a bench subprocess's path."""
+    info = root / f"{name}-0.1.dist-info"
+    info.mkdir(parents=True)
+    (info / "METADATA").write_text(f"Metadata-Version: 2.1\nName: {name}\nVersion: 0.1\n")
+    (info / "entry_points.txt").write_text(f"[ifo_bench.algorithms]\n{entry_points}\n")
+    for module, code in modules.items():
+        (root / f"{module}.py").write_text(code)
+    return {**os.environ, "PYTHONPATH": str(root)}

@@ -47,6 +47,10 @@ BAD_SUITES = {
         GOOD.replace("[random, expert]", "[random, expert, {gaifo: {disc_steps: -5}}]"),
         "disc_steps must be >= 1",
     ),
+    "a budget below one batch": (
+        GOOD.replace("2048", "1000").replace("[random, expert]", "[random, expert, survival]"),
+        "1000 env steps are fewer than survival needs to train (2048)",
+    ),
     "a bool for an int": (
         GOOD.replace("[random, expert]", "[random, expert, {survival: {n_envs: true}}]"),
         "n_envs: expected int",

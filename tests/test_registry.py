@@ -1,4 +1,3 @@
-import os
 import re
 import sys
 from pathlib import Path
@@ -116,20 +115,8 @@ def test_the_oracle_trains_on_the_envs_reward_where_survival_trains_on_one_per_s
     assert returns("oracle", "HopperBulletEnv-v0") != returns("survival", "HopperBulletEnv-v0")
 
 
-def installed_plugin(root: Path, name: str, entry_points: str, modules: dict[str, str]) -> dict:
-    """A plugin distribution as pip leaves one (a .dist-info with its entry points) under
-    `root`, and the environment that puts it on a bench subprocess's path."""
-    info = root / f"{name}-0.1.dist-info"
-    info.mkdir(parents=True)
-    (info / "METADATA").write_text(f"Metadata-Version: 2.1\nName: {name}\nVersion: 0.1\n")
-    (info / "entry_points.txt").write_text(f"[ifo_bench.algorithms]\n{entry_points}\n")
-    for module, code in modules.items():
-        (root / f"{module}.py").write_text(code)
-    return {**os.environ, "PYTHONPATH": str(root)}
-
-
-def test_a_broken_plugin_is_named_once_and_the_rest_works(tmp_path, cli):
-    env = installed_plugin(tmp_path, "broken", "broken-ifo = broken_ifo", {"broken_ifo": "1/0\n"})
+def test_a_broken_plugin_is_named_once_and_the_rest_works(tmp_path, cli, install_plugin):
+    env = install_plugin(tmp_path, "broken", "broken-ifo = broken_ifo", {"broken_ifo": "1/0\n"})
     out = cli("list", env=env)
     assert out.returncode == 0, out.stderr
     warning = [line for line in out.stderr.splitlines() if "broken-ifo" in line]
@@ -137,15 +124,38 @@ def test_a_broken_plugin_is_named_once_and_the_rest_works(tmp_path, cli):
     assert "gaifo" in out.stdout and "broken-ifo" not in out.stdout
 
 
-def test_a_plugin_that_takes_a_builtin_name_is_an_error_naming_both(tmp_path, cli):
+def test_a_plugin_that_takes_a_builtin_name_is_an_error_naming_both(tmp_path, cli, install_plugin):
     code = (
         "from dataclasses import dataclass\nfrom bench.registry import register\n\n"
         "@dataclass\nclass C:\n    pass\n\n"
         "@register('gaifo', config=C, inputs='states')\n"
         "def train(task, demos, budget, seed, logger, config):\n    pass\n"
     )
-    env = installed_plugin(tmp_path, "clash", "my-gaifo = clash_ifo", {"clash_ifo": code})
+    env = install_plugin(tmp_path, "clash", "my-gaifo = clash_ifo", {"clash_ifo": code})
     out = cli("list", env=env)
     assert out.returncode == 2 and len(out.stderr.strip().splitlines()) == 1, out.stderr
     assert "'gaifo' is registered twice" in out.stderr
     assert "algorithms.gaifo.train" in out.stderr and "clash_ifo.train" in out.stderr
+
+
+def test_every_committed_record_is_still_a_trial_of_its_suite():
+    """Validation only checks: every committed suite still loads, every committed record's
+    settings pass the checks, and its trial id is one its suite expands to today (so no
+    record went stale or changed id)."""
+    from collections import defaultdict
+
+    from bench import store
+    from bench.suite import expand, load_suite
+
+    root = README.parent
+    ids: dict[str, set[str]] = defaultdict(set)
+    for path in sorted((root / "suites").glob("*.yaml")):
+        suite = load_suite(path)
+        ids[suite.name] |= {s.trial_id for s in expand(suite)}
+    for name, expected in ids.items():
+        checked = 0
+        for record in store.scan(root / "results" / name):
+            assert record.trial_id in expected, f"{name}: {record.trial_id} is no trial of it"
+            registry.get(record.spec.algorithm).make_config(record.spec.hyperparams)
+            checked += 1
+        assert checked == len(list(store.trials_dir(root / "results" / name).glob("*.json")))
