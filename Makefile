@@ -1,7 +1,8 @@
 # Two commands do everything on a fresh machine:
 #   make run    install, then train every trial of suites/quick.yaml into runs/quick/ (not
 #               committed), draw its figure and compare it with the committed results/quick/
-#   make test   install, then lint and run the test suite
+#   make test   install, then lint, build the docs site (strict: a broken link fails) and run the
+#               test suite
 PYTHON ?= python3
 VENV ?= .venv
 BIN := $(VENV)/bin
@@ -10,7 +11,7 @@ NAME := $(basename $(notdir $(SUITE)))
 RUN ?= runs/$(NAME)
 REFERENCE ?= results/$(NAME)
 
-.PHONY: install run test bench clean
+.PHONY: install run test bench docs clean
 
 $(BIN)/.installed: pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -30,7 +31,11 @@ run: install
 test: install
 	$(BIN)/ruff check .
 	$(BIN)/ruff format --check .
+	NO_MKDOCS_2_WARNING=1 $(BIN)/mkdocs build --strict --quiet --site-dir build/site
 	$(BIN)/python -m pytest -q
+
+docs: install
+	NO_MKDOCS_2_WARNING=1 $(BIN)/mkdocs serve
 
 bench: install
 	$(BIN)/python benchmarks/throughput.py

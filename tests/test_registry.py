@@ -1,4 +1,6 @@
+import os
 import re
+import subprocess
 import sys
 from pathlib import Path
 
@@ -41,23 +43,36 @@ def test_unknown_algorithm_and_hyperparameter_are_named():
         registry.get("gaifo").make_config({"reward": "D"})
 
 
-def test_readme_plugin_example_runs(tmp_path, monkeypatch):
-    """The README's plugin is real code: register it and train it through the runner."""
-    text = README.read_text()
-    section = text[text.index("## Adding an algorithm") :]
-    code = re.search(r"```python\n(.*?)```", section, re.S).group(1)
-    (tmp_path / "readme_ifo").mkdir()
-    (tmp_path / "readme_ifo" / "__init__.py").write_text(code)
-    monkeypatch.syspath_prepend(str(tmp_path))
-    __import__("readme_ifo")
-    try:
-        result = run_trial(spec("nearest-state"), trial_inputs(spec("nearest-state")))
-        assert result.status == "ok", result.traceback
-        assert 0 < result.env_steps <= 4096 and len(result.returns) == 2
-        assert np.all(np.isfinite(result.returns))
-    finally:
-        registry._ALGORITHMS.pop("nearest-state", None)
-        sys.modules.pop("readme_ifo", None)
+PLUGIN_PAGE = README.parent / "docs" / "guide" / "plugins.md"
+
+
+def test_the_plugin_page_installs_and_runs_as_written(tmp_path, cli):
+    """The docs' plugin package, built from the page's own code blocks: pip installs it, bench
+    lists it, and a suite trains it through the runner."""
+    text = PLUGIN_PAGE.read_text()
+    code = re.search(r"```python\n(.*?)```", text, re.S).group(1)
+    toml = re.search(r"```toml\n(.*?)```", text, re.S).group(1)
+    package = tmp_path / "my-ifo"
+    (package / "my_ifo").mkdir(parents=True)
+    (package / "my_ifo" / "__init__.py").write_text(code)
+    (package / "pyproject.toml").write_text(toml)
+    site = tmp_path / "site"
+    install = [sys.executable, "-m", "pip", "install", "-q", "--no-deps", "--no-build-isolation"]
+    subprocess.run([*install, "--target", str(site), str(package)], check=True, capture_output=True)
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(site), *sys.path])}
+    assert "nearest-state" in cli("list", env=env).stdout
+    suite = tmp_path / "plug.yaml"
+    suite.write_text(
+        f"envs: {{{PENDULUM}: {{budget: 4096}}}}\ndemos: [1]\n"
+        "algorithms: [random, expert, nearest-state]\nseeds: 1\neval_episodes: 2\n"
+    )
+    out = cli("run", str(suite), "--results", str(tmp_path / "res"), "--jobs", "1", env=env)
+    assert out.returncode == 0, out.stderr
+    from bench import store
+
+    runs = store.load(tmp_path / "res")
+    row = runs[runs.algorithm == "nearest-state"].iloc[0]
+    assert row.status == "ok" and 0 < row.env_steps <= 4096 and np.isfinite(row["return"])
 
 
 def test_trial_id_covers_resolved_defaults(tmp_path):

@@ -126,52 +126,6 @@ def test_failing_trial_is_recorded_and_retried(tmp_path, cli, install_plugin):
     assert "0 trials done, 1 failed, 1 already finished" in out.stdout
 
 
-def test_plugin_algorithm_through_an_entry_point(tmp_path, cli):
-    pkg = tmp_path / "plugin_src"
-    (pkg / "zero_ifo").mkdir(parents=True)
-    (pkg / "pyproject.toml").write_text(
-        '[build-system]\nrequires = ["setuptools"]\nbuild-backend = "setuptools.build_meta"\n'
-        '[project]\nname = "zero-ifo"\nversion = "0.0.1"\n'
-        '[project.entry-points."ifo_bench.algorithms"]\nzero = "zero_ifo"\n'
-    )
-    (pkg / "zero_ifo" / "__init__.py").write_text(
-        "from dataclasses import dataclass\nimport numpy as np\nfrom bench.registry import register\n\n"
-        "@dataclass\nclass ZeroConfig:\n    scale: float = 0.0\n\n"
-        "@register('zero', config=ZeroConfig, inputs='states', description='always the zero action')\n"
-        "def train(task, demos, budget, seed, logger, config):\n"
-        "    assert not hasattr(demos, 'actions')\n"
-        "    return lambda obs: np.zeros((len(obs), task.act_dim), np.float32) + config.scale\n"
-    )
-    site = tmp_path / "site"
-    subprocess.run(
-        [
-            sys.executable,
-            "-m",
-            "pip",
-            "install",
-            "-q",
-            "--no-deps",
-            "--no-build-isolation",
-            "--target",
-            str(site),
-            str(pkg),
-        ],
-        check=True,
-        capture_output=True,
-    )
-    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(site), *sys.path])}
-    listed = cli("list", env=env)
-    assert "zero" in listed.stdout and "always the zero action" in listed.stdout
-    suite = write_suite(
-        tmp_path,
-        "plug",
-        f"envs: {{{PENDULUM}: {{budget: 1000}}}}\ndemos: [1]\nalgorithms: [{{zero: {{scale: 0.1}}}}]\nseeds: 1\neval_episodes: 1\n",
-    )
-    out = cli("run", str(suite), "--results", str(tmp_path / "res"), "--jobs", "1", env=env)
-    assert out.returncode == 0, out.stderr
-    assert store.load(tmp_path / "res").algorithm.tolist() == ["zero"]
-
-
 def test_dispatch_runs_unseen_kinds_then_the_costliest_first():
     def spec(env: str, algorithm: str, seed: int, budget: int = 1000) -> TrialSpec:
         return TrialSpec("t", env, algorithm, 0, seed, budget, 1)
