@@ -10,8 +10,8 @@ import torch
 
 from bench.registry import Logger, Task
 from bench.rl.networks import DeterministicPolicy, GaussianPolicy
-from bench.rl.rollout import Batch
-from bench.rl.trpo import TRPO, Callback, TRPOConfig
+from bench.rl.rollout import Batch, RewardFn
+from bench.rl.trpo import TRPO, Callback, TRPOConfig, train
 
 
 @dataclass
@@ -90,3 +90,25 @@ def report_each_update(
             logger.checkpoint(steps, average.policy(learner, task))
 
     return on_update
+
+
+def train_control(
+    task: Task,
+    budget: int,
+    seed: int,
+    logger: Logger,
+    config: ImitationTRPOConfig,
+    reward_fn: RewardFn | None,
+) -> DeterministicPolicy:
+    """A control: the imitators' TRPO, with their settings and their averaged policy, on
+    `reward_fn` (None: the env's own reward) instead of a reward learned from demonstrations."""
+    average = PolicyAverage(config.policy_average)
+    learner = train(
+        task.make_env,
+        budget,
+        seed,
+        reward_fn=reward_fn,
+        callback=report_each_update(task, logger, average=average),
+        learner=TRPO(task.obs_shape, task.act_dim, config, seed, task.device),
+    )
+    return average.policy(learner, task)

@@ -8,10 +8,8 @@ is the optimizer's at this budget."""
 
 from __future__ import annotations
 
-from algorithms.common import ImitationTRPOConfig, PolicyAverage, one_batch, report_each_update
+from algorithms.common import ImitationTRPOConfig, one_batch, train_control
 from bench.registry import Logger, Policy, Task, register
-from bench.rl.trpo import TRPO
-from bench.rl.trpo import train as trpo_train
 
 
 @register(
@@ -25,13 +23,5 @@ from bench.rl.trpo import train as trpo_train
 def train(
     task: Task, demos: None, budget: int, seed: int, logger: Logger, config: ImitationTRPOConfig
 ) -> Policy:
-    average = PolicyAverage(config.policy_average)
-    learner = trpo_train(
-        task.make_env,
-        budget,
-        seed,
-        reward_fn=None,  # the env's reward: what the expert was trained on
-        callback=report_each_update(task, logger, average=average),
-        learner=TRPO(task.obs_shape, task.act_dim, config, seed, task.device),
-    )
-    return average.policy(learner, task)
+    # reward_fn=None: the env's reward, what the expert was trained on
+    return train_control(task, budget, seed, logger, config, reward_fn=None)

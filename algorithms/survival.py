@@ -6,15 +6,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from algorithms.common import (
-    ImitationTRPOConfig,
-    PolicyAverage,
-    one_batch,
-    report_each_update,
-)
+from algorithms.common import ImitationTRPOConfig, one_batch, train_control
 from bench.registry import Logger, Policy, Task, register
-from bench.rl.trpo import TRPO
-from bench.rl.trpo import train as trpo_train
 
 
 @register(
@@ -28,13 +21,6 @@ from bench.rl.trpo import train as trpo_train
 def train(
     task: Task, demos: None, budget: int, seed: int, logger: Logger, config: ImitationTRPOConfig
 ) -> Policy:
-    average = PolicyAverage(config.policy_average)
-    learner = trpo_train(
-        task.make_env,
-        budget,
-        seed,
-        reward_fn=lambda batch: np.ones_like(batch.rewards),
-        callback=report_each_update(task, logger, average=average),
-        learner=TRPO(task.obs_shape, task.act_dim, config, seed, task.device),
+    return train_control(
+        task, budget, seed, logger, config, reward_fn=lambda b: np.ones_like(b.rewards)
     )
-    return average.policy(learner, task)
