@@ -14,14 +14,16 @@ import pandas as pd
 RANDOM, EXPERT = "random", "expert"
 REFERENCES = (RANDOM, EXPERT)
 """The reference algorithms that define 0 and 1; every other algorithm is a learner."""
-ORACLE = "oracle"
-"""The upper control (TRPO on the env's own reward): the ceiling the imitators are read against."""
+SURVIVAL, ORACLE = "survival", "oracle"
+"""The controls: the imitators' optimizer paid +1 per step alive (the floor), and on the env's
+own reward (the ceiling at this budget, that the imitators are read against)."""
+CONTROLS = (SURVIVAL, ORACLE)
 
 
-def is_oracle(df: pd.DataFrame) -> pd.Series:
-    """Per row of `df`: is it a trial of the oracle control, or of a labelled variant of it?
-    (Column `method`, the registered algorithm; frames without it go by `algorithm`.)"""
-    return df.get("method", df["algorithm"]) == ORACLE
+def method(df: pd.DataFrame) -> pd.Series:
+    """Per row of `df`: the registered algorithm (column `method`; a labelled variant's label
+    is its `algorithm`), or `algorithm` in frames without it."""
+    return df["method"] if "method" in df else df["algorithm"]
 
 
 def demo_free(df: pd.DataFrame) -> pd.Series:

@@ -21,7 +21,7 @@ from matplotlib.patches import Patch
 from matplotlib.ticker import EngFormatter
 
 from bench.envs import PAPER_ENVS
-from bench.normalize import REFERENCES, demo_free, is_oracle
+from bench.normalize import CONTROLS, ORACLE, REFERENCES, SURVIVAL, demo_free, method
 
 """Normalized to 0 and 1 by construction: drawn as lines, not bars."""
 PAPER_ALGORITHMS = ("gaifo", "gail", "bco", "tcn", "survival")
@@ -40,9 +40,13 @@ ACTIONS_FOOTNOTE = "* has access to expert actions"
 PALETTE = "colorblind"
 DPI = 200
 REFERENCE_LINES = {"random": ("0.45", "Random (0)"), "expert": ("0.1", "Expert (1)")}
-CEILING_STYLE = {"linestyle": "-.", "linewidth": 1.3}
-"""The oracle control (TRPO on the true reward) is a reference, not a competitor: a line across
-each panel at its mean over seeds, a band of one standard deviation, no bar."""
+CONTROL_LINES = {
+    SURVIVAL: ({"linestyle": ":", "linewidth": 1.5}, "floor: paid to stay alive"),
+    ORACLE: ({"linestyle": "-.", "linewidth": 1.3}, "ceiling: the true reward"),
+}
+"""The controls are references, not competitors: in Figure 2 each is a line across its panel
+at its mean over seeds with a band of one standard deviation, not a bar (by registered
+algorithm, so a labelled variant of one is drawn alike)."""
 
 
 # ---------------------------------------------------------------- order, names, colors
@@ -105,18 +109,22 @@ def draw_figure2(df: pd.DataFrame) -> Figure:
     """The paper's Figure 2: per env, normalized return against number of demonstrations.
 
     One bar per learner and demo count: mean over seeds, error bar one
-    standard deviation. Learners that take no demonstrations (n_demos=0,
-    e.g. survival) score the same at every count, so their bar repeats.
+    standard deviation. Learners that take no demonstrations (n_demos=0) score
+    the same at every count, so their bar repeats; the controls (survival,
+    oracle) are drawn as lines across the panel instead (CONTROL_LINES).
     Needs columns env_id, algorithm, n_demos, normalized.
     """
-    ceilings = df[is_oracle(df)]
-    learners = repeat_demo_free(df[~df["algorithm"].isin(REFERENCES) & ~is_oracle(df)])
+    learners = df[~df["algorithm"].isin(REFERENCES)]
     if learners.empty:
-        raise ValueError("no trials of a learning algorithm to plot (only references and oracle)")
+        raise ValueError("no trials of a learning algorithm to plot (only random/expert)")
+    is_control = method(learners).isin(CONTROLS)
+    if is_control.all():  # nothing to set against them: the controls are the bars
+        is_control = is_control & False
+    controls, learners = learners[is_control], repeat_demo_free(learners[~is_control])
     envs = env_order(learners["env_id"].unique())
     algos = algorithm_order(learners["algorithm"].unique())
     demos = sorted(learners["n_demos"].unique())
-    colors = algorithm_colors([*algos, *ceilings["algorithm"].unique()])
+    colors = algorithm_colors([*algos, *controls["algorithm"].unique()])
     starred = action_users(learners)
 
     with sns.axes_style("whitegrid"), sns.plotting_context("paper"):
@@ -137,7 +145,7 @@ def draw_figure2(df: pd.DataFrame) -> Figure:
                 legend=False,
                 ax=ax,
             )
-            _ceiling_lines(ax, ceilings[ceilings["env_id"] == env_id], colors)
+            _control_lines(ax, controls[controls["env_id"] == env_id], colors)
             _reference_lines(ax)
             ax.set_title(env_label(env_id))
             ax.set_xlabel("")
@@ -146,15 +154,16 @@ def draw_figure2(df: pd.DataFrame) -> Figure:
         fig.supxlabel("Number of demonstration trajectories", fontsize="medium")
         fig.supylabel("Normalized return", fontsize="medium")
         handles = [Patch(facecolor=colors[a], label=algorithm_label(a, starred)) for a in algos]
+        shown = dict(zip(controls["algorithm"], method(controls), strict=True))
         handles += [
             Line2D(
                 [],
                 [],
                 color=colors[a],
-                **CEILING_STYLE,
-                label=f"{algorithm_label(a)} (true reward)",
+                **CONTROL_LINES[shown[a]][0],
+                label=f"{algorithm_label(a)} ({CONTROL_LINES[shown[a]][1]})",
             )
-            for a in algorithm_order(ceilings["algorithm"].unique())
+            for a in algorithm_order(shown)
         ]
         _legend_and_titles(
             fig, handles, "Imitation performance vs. number of demonstrations", starred
@@ -303,12 +312,13 @@ def _panels(n: int, width: float, height: float) -> tuple[Figure, list[Axes]]:
     return fig, axes[:n]
 
 
-def _ceiling_lines(ax: Axes, ceilings: pd.DataFrame, colors: dict) -> None:
-    """Each oracle variant of one env as a line at its mean normalized return over seeds, and a
-    band of one standard deviation around it."""
-    for name, rows in ceilings.groupby("algorithm"):
+def _control_lines(ax: Axes, controls: pd.DataFrame, colors: dict) -> None:
+    """Each control (or labelled variant of one) of one env as a line at its mean normalized
+    return over seeds, and a band of one standard deviation around it."""
+    for name, rows in controls.groupby("algorithm"):
         mean, sd = rows["normalized"].mean(), rows["normalized"].std()
-        ax.axhline(mean, color=colors[name], zorder=2.5, **CEILING_STYLE)
+        style = CONTROL_LINES[method(rows).iloc[0]][0]
+        ax.axhline(mean, color=colors[name], zorder=2.5, **style)
         if pd.notna(sd):
             ax.axhspan(mean - sd, mean + sd, color=colors[name], alpha=0.12, lw=0, zorder=0.4)
 

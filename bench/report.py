@@ -30,7 +30,9 @@ from bench.normalize import (
     ORACLE,
     RANDOM,
     REFERENCES,
+    SURVIVAL,
     demo_free,
+    method,
     normalize,
     reference_returns,
 )
@@ -52,7 +54,7 @@ STATE_MATCH_COLUMNS = [
 ]
 TARGET = "gaifo"
 """The algorithm whose probability of improvement over the others is reported."""
-CONTROL = "survival"
+CONTROL = SURVIVAL
 """The no-demonstration control every other learner is also compared with."""
 PER_ENV_CSV = "per_env.csv"
 PER_ENV_COLUMNS = [
@@ -227,7 +229,7 @@ def ceiling_of(learner: str, methods: dict[str, str]) -> str | None:
     """The oracle variant `learner` is read against: the one whose label shares the learner's
     variant suffix (gaifo-b1024 -> oracle-b1024), else the plain oracle, else None.
     `methods`: shown name -> registered algorithm, for every name present."""
-    oracles = {name for name, method in methods.items() if method == ORACLE}
+    oracles = {name for name, registered in methods.items() if registered == ORACLE}
     suffix = learner.removeprefix(methods.get(learner, learner))
     matched = f"{ORACLE}{suffix}"
     if suffix and matched in oracles:
@@ -688,8 +690,7 @@ def _per_env_section(
 
 def _methods(df: pd.DataFrame) -> dict[str, str]:
     """Shown name -> registered algorithm (the name itself in frames without `method`)."""
-    method = df["method"] if "method" in df else df["algorithm"]
-    return dict(zip(df["algorithm"], method, strict=True))
+    return dict(zip(df["algorithm"], method(df), strict=True))
 
 
 def _env_table(

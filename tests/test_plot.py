@@ -60,12 +60,13 @@ def test_figure2_panels_bars_and_labels():
 
 def test_figure2_repeats_demo_free_learners_at_every_count():
     df = frame()
-    survival = df[df["algorithm"] == "random"].assign(algorithm="survival", normalized=0.2)
-    fig = plot.draw_figure2(pd.concat([df, survival]))
+    free = df[df["algorithm"] == "random"].assign(algorithm="no-demos-ifo", normalized=0.2)
+    fig = plot.draw_figure2(pd.concat([df, free]))
     for ax in fig.axes:
         assert len(ax.patches) == 3 * len(DEMOS)
         assert [t.get_text() for t in ax.get_xticklabels()] == ["1", "10"]
-    assert [t.get_text() for t in fig.legends[0].get_texts()][:3] == ["GAIfO", "GAIL*", "Survival"]
+    legend = [t.get_text() for t in fig.legends[0].get_texts()]
+    assert legend[:3] == ["GAIfO", "GAIL*", "no-demos-ifo"]
 
 
 def test_figure2_writes_png_and_pdf(tmp_path):
@@ -144,15 +145,24 @@ def test_performance_profile_plot(tmp_path):
     assert plot.save(fig, tmp_path / "profile")[1].is_file()
 
 
-def test_figure2_draws_the_oracle_as_a_line_not_a_bar():
+def test_figure2_draws_the_controls_as_lines_not_bars():
     df = frame()
-    oracle = df[df["algorithm"] == "expert"].assign(
-        algorithm="oracle", method="oracle", normalized=[0.8, 0.9, 0.7] * len(ENVS)
-    )
-    fig = plot.draw_figure2(pd.concat([df.assign(method=df["algorithm"]), oracle]))
+    experts = df[df["algorithm"] == "expert"]
+    oracle = experts.assign(algorithm="oracle", normalized=[0.8, 0.9, 0.7] * len(ENVS))
+    survival = experts.assign(algorithm="survival-b", method="survival", normalized=0.3)
+    fig = plot.draw_figure2(pd.concat([df, oracle.assign(method="oracle"), survival]))
     for ax in fig.axes:
         bars = [bar for c in ax.containers if isinstance(c, BarContainer) for bar in c]
-        assert len(bars) == 2 * len(DEMOS)  # gaifo and gail; the oracle's band is no bar
-        dash_dot = [line for line in ax.lines if line.get_linestyle() == "-."]
-        assert [round(line.get_ydata()[0], 6) for line in dash_dot] == [0.8]  # mean over seeds
-    assert "Oracle (true reward)" in [t.get_text() for t in fig.legends[0].get_texts()]
+        assert len(bars) == 2 * len(DEMOS)  # gaifo and gail; the controls' bands are no bars
+        levels = {line.get_linestyle(): round(line.get_ydata()[0], 6) for line in ax.lines}
+        assert levels["-."] == 0.8 and levels[":"] == 0.3  # oracle and survival: seed means
+    legend = [t.get_text() for t in fig.legends[0].get_texts()]
+    assert "Oracle (ceiling: the true reward)" in legend
+    assert "survival-b (floor: paid to stay alive)" in legend
+
+
+def test_figure2_of_controls_alone_draws_them_as_bars():
+    df = frame()
+    survival = df[df["algorithm"] == "expert"].assign(algorithm="survival", normalized=0.3)
+    fig = plot.draw_figure2(pd.concat([df[df["algorithm"].isin(["random", "expert"])], survival]))
+    assert [len(ax.patches) for ax in fig.axes] == [1] * len(ENVS)  # one bar: no demo counts
