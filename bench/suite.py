@@ -12,7 +12,9 @@ A suite names everything one experiment runs::
       # trpo: {n_envs: 16} (TRPO settings for every TRPO learner on this env, e.g. its batch,
       # so the survival control stays matched; an algorithm's own setting wins);
       # hyperparams: {disc_steps: 25} (settings for every algorithm on this env that has
-      # them, e.g. the adversarial learners' discriminator pace; an algorithm's own wins)
+      # them, e.g. the adversarial learners' discriminator pace; an algorithm's own wins);
+      # seeds: {gaifo: 5, bco: 3} (seeds per algorithm or label on this env, over the
+      # entry's and the suite's: a dear env runs fewer)
     demos: [1, 5, 10, 25]  # demonstration counts: distinct ints in 1..DEMO_POOL_SIZE
     algorithms:            # a name, or {name: {hyperparameter: value}}
       - random
@@ -49,7 +51,7 @@ from bench.types import TrialSpec
 
 _SUITE_KEYS = ("name", "envs", "demos", "algorithms", "seeds", "eval_episodes", "runner")
 _REQUIRED_KEYS = ("envs", "demos", "algorithms")
-_ENV_KEYS = ("budget", "dataset", "observation", "frame_size", "trpo", "hyperparams")
+_ENV_KEYS = ("budget", "dataset", "observation", "frame_size", "trpo", "hyperparams", "seeds")
 _OBSERVATIONS = ("states", "pixels", "video-reward")
 _RUNNER_KEYS = ("jobs", "backend")
 _BACKENDS = ("loky", "dask")
@@ -90,6 +92,9 @@ class EnvSettings:
     """Settings for every algorithm on this env whose config has them (each key goes to the
     algorithms that know it), above `trpo` and under an algorithm's own overrides: what a
     task needs from, say, a discriminator is the task's, not the suite's."""
+    seeds: dict[str, tuple[int, ...]] = field(default_factory=dict, hash=False)
+    """Seeds per algorithm (name or label) on this env, over the entry's and the suite's:
+    a dear env runs fewer seeds than a cheap one in the same figure."""
 
 
 @dataclass(frozen=True)
@@ -138,14 +143,23 @@ def expand(suite: Suite) -> list[TrialSpec]:
     with_demos = [a for a in suite.algorithms if a.uses_demos]
     specs = []
     for env in suite.envs:
-        specs += [_spec(suite, env, a, 0, s) for a in no_demos for s in a.seeds or suite.seeds]
+        specs += [_spec(suite, env, a, 0, s) for a in no_demos for s in seeds_of(suite, env, a)]
         specs += [
             _spec(suite, env, a, n, s)
             for n in suite.demos
             for a in with_demos
-            for s in a.seeds or suite.seeds
+            for s in seeds_of(suite, env, a)
         ]
     return specs
+
+
+def seeds_of(suite: Suite, env: EnvSettings, algo: AlgorithmEntry) -> tuple[int, ...]:
+    """An entry's seeds on an env: the env's for it (by label, then by name), else the
+    entry's own, else the suite's."""
+    for name in (algo.shown, algo.name):
+        if name in env.seeds:
+            return env.seeds[name]
+    return algo.seeds or suite.seeds
 
 
 def select(
@@ -314,6 +328,15 @@ def _suite(raw: Any, default_name: str) -> Suite:
                 f"no trained expert in {paths.expert_dir(env.env_id)} (every suite needs one:"
                 " it is the 1.0 of normalized scores; train it with `bench experts`)",
             )
+    names = {n for a in algorithms for n in (a.name, a.shown)}
+    for env in envs:
+        unknown = sorted(set(env.seeds) - names)
+        if unknown:
+            raise _Invalid(
+                f"envs.{env.env_id}.seeds",
+                f"{', '.join(map(repr, unknown))} is no algorithm or label of the suite"
+                f" ({', '.join(sorted(names))})",
+            )
     suite = Suite(name, envs, demos, algorithms, seeds, eval_episodes, runner)
     _check_budgets(suite)
     return suite
@@ -424,7 +447,11 @@ def _envs(raw: Any) -> tuple[EnvSettings, ...]:
         seen = None if observation == "states" else observation
         trpo = _trpo_settings(settings.get("trpo", {}), f"{key}.trpo")
         hyperparams = _plain_mapping(settings.get("hyperparams", {}), f"{key}.hyperparams")
-        envs.append(EnvSettings(env_id, budget, dataset, seen, frame_size, trpo, hyperparams))
+        seeds = _plain_mapping(settings.get("seeds", {}), f"{key}.seeds")
+        seeds = {name: _seeds(value, f"{key}.seeds.{name}") for name, value in seeds.items()}
+        envs.append(
+            EnvSettings(env_id, budget, dataset, seen, frame_size, trpo, hyperparams, seeds)
+        )
     return tuple(envs)
 
 

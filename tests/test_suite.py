@@ -451,6 +451,29 @@ def test_an_entry_may_run_fewer_seeds(tmp_path):
         load_suite(write(tmp_path, bad))
 
 
+def test_an_env_may_run_other_seeds_per_algorithm(tmp_path):
+    entries = ["random", {"algorithm": "ifo", "seeds": 2}, "with-actions"]
+    raw = base() | {"name": "t", "algorithms": entries}
+    plain = {s.trial_id for s in expand(load_suite(write(tmp_path, raw)))}
+    raw["envs"][HOPPER]["seeds"] = {"ifo": 1, "random": [4, 7]}
+    specs = expand(load_suite(write(tmp_path, raw, "s.yaml")))
+    seeds = {
+        (s.env_id, s.algorithm): sorted(
+            {t.seed for t in specs if (t.env_id, t.algorithm) == (s.env_id, s.algorithm)}
+        )
+        for s in specs
+    }
+    assert seeds[HOPPER, "ifo"] == [0] and seeds[HOPPER, "random"] == [4, 7]
+    assert seeds[HOPPER, "with-actions"] == [0, 1, 2]  # the suite's, as before
+    assert seeds[PENDULUM, "ifo"] == [0, 1] and seeds[PENDULUM, "random"] == [0, 1, 2]
+    assert {s.trial_id for s in specs if s.seed in (0, 1)} <= plain  # the same trials keep ids
+    raw["envs"][HOPPER]["seeds"] = {"ifoo": 1}
+    with pytest.raises(
+        SuiteError, match=r"envs\.HopperBulletEnv-v0\.seeds: 'ifoo' is no algorithm"
+    ):
+        load_suite(write(tmp_path, raw, "bad.yaml"))
+
+
 def test_a_pixel_env_marks_its_trials_and_keeps_state_trial_ids(tmp_path):
     raw = base() | {"name": "s", "algorithms": ["random", "expert"]}
     states = expand(load_suite(write(tmp_path, raw)))
