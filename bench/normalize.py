@@ -17,7 +17,16 @@ REFERENCES = (RANDOM, EXPERT)
 SURVIVAL, ORACLE = "survival", "oracle"
 """The controls: the imitators' optimizer paid +1 per step alive (the floor), and on the env's
 own reward (the ceiling at this budget, that the imitators are read against)."""
-CONTROLS = (SURVIVAL, ORACLE)
+FLOORS = (SURVIVAL, "survival-sac")
+CEILINGS = (ORACLE, "oracle-sac")
+"""The controls of each optimizer (TRPO's, SAC's), by registered name."""
+CONTROLS = FLOORS + CEILINGS
+
+
+def optimizer_of(registered: str) -> str:
+    """The optimizer family of a registered algorithm, as its name says: "sac" for the
+    off-policy family ("gaifo-sac", "oracle-sac"), "" for the TRPO learners."""
+    return "sac" if registered.endswith("-sac") else ""
 
 
 def method(df: pd.DataFrame) -> pd.Series:

@@ -21,7 +21,7 @@ from matplotlib.patches import Patch
 from matplotlib.ticker import EngFormatter
 
 from bench.envs import PAPER_ENVS
-from bench.normalize import CONTROLS, ORACLE, REFERENCES, SURVIVAL, demo_free, method
+from bench.normalize import CEILINGS, CONTROLS, FLOORS, REFERENCES, demo_free, method
 
 """Normalized to 0 and 1 by construction: drawn as lines, not bars."""
 PAPER_ALGORITHMS = ("gaifo", "gail", "bco", "tcn", "survival")
@@ -41,8 +41,13 @@ PALETTE = "colorblind"
 DPI = 200
 REFERENCE_LINES = {"random": ("0.45", "Random (0)"), "expert": ("0.1", "Expert (1)")}
 CONTROL_LINES = {
-    SURVIVAL: ({"linestyle": ":", "linewidth": 1.5}, "floor: paid to stay alive"),
-    ORACLE: ({"linestyle": "-.", "linewidth": 1.3}, "ceiling: the true reward"),
+    **{
+        floor: ({"linestyle": ":", "linewidth": 1.5}, "floor: paid to stay alive")
+        for floor in FLOORS
+    },
+    **{
+        top: ({"linestyle": "-.", "linewidth": 1.3}, "ceiling: the true reward") for top in CEILINGS
+    },
 }
 """The controls are references, not competitors: in Figure 2 each is a line across its panel
 at its mean over seeds with a band of one standard deviation, not a bar (by registered

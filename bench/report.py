@@ -26,6 +26,7 @@ import pandas as pd
 
 from bench import plot, stats, store
 from bench.normalize import (
+    CEILINGS,
     EXPERT,
     ORACLE,
     RANDOM,
@@ -34,6 +35,7 @@ from bench.normalize import (
     demo_free,
     method,
     normalize,
+    optimizer_of,
     reference_returns,
 )
 
@@ -226,15 +228,21 @@ def improvement_pairs(
 
 
 def ceiling_of(learner: str, methods: dict[str, str]) -> str | None:
-    """The oracle variant `learner` is read against: the one whose label shares the learner's
-    variant suffix (gaifo-b1024 -> oracle-b1024), else the plain oracle, else None.
+    """The oracle variant `learner` is read against, among its optimizer's oracles
+    (`oracle` for TRPO learners, `oracle-sac` for SAC's): the one whose label shares the
+    learner's variant suffix (gaifo-b1024 -> oracle-b1024), else the plain one, else None.
     `methods`: shown name -> registered algorithm, for every name present."""
-    oracles = {name for name, registered in methods.items() if registered == ORACLE}
-    suffix = learner.removeprefix(methods.get(learner, learner))
-    matched = f"{ORACLE}{suffix}"
-    if suffix and matched in oracles:
-        return matched
-    return ORACLE if ORACLE in oracles else None
+    registered = methods.get(learner, learner)
+    family = optimizer_of(registered)
+    oracles = {
+        name: m for name, m in methods.items() if m in CEILINGS and optimizer_of(m) == family
+    }
+    suffix = learner.removeprefix(registered)
+    for name, m in oracles.items():
+        if suffix and name == f"{m}{suffix}":
+            return name
+    plain = [name for name, m in oracles.items() if name == m]
+    return plain[0] if plain else None
 
 
 def oracle_fractions(
@@ -245,7 +253,7 @@ def oracle_fractions(
     rows = []
     for i, name in enumerate(scores):
         ceiling = ceiling_of(name, methods)
-        if methods.get(name) == ORACLE or ceiling is None or ceiling not in scores:
+        if methods.get(name) in CEILINGS or ceiling is None or ceiling not in scores:
             continue
         ratio = stats.iqm_ratio(scores[name], scores[ceiling], reps=reps, seed=i)
         rows.append({"algorithm": name, "other": ceiling, **ratio})
@@ -562,7 +570,7 @@ def _demo_section(
                 f"{plot.algorithm_label(TARGET, starred)} has no scores with {title.lower()}."
             )
         methods = _methods(df)
-        pairs = improvement_pairs(scores, [a for a in scores if methods.get(a) == ORACLE])
+        pairs = improvement_pairs(scores, [a for a in scores if methods.get(a) in CEILINGS])
         if pairs:
             improvement = stats.improvement_of_pairs(scores, pairs, reps=reps)
             parts.append(improvement_table(improvement, starred))
@@ -639,7 +647,7 @@ def _per_env_section(
                 )
             )
         methods = _methods(here)
-        pairs = improvement_pairs(scores, [a for a in scores if methods.get(a) == ORACLE])
+        pairs = improvement_pairs(scores, [a for a in scores if methods.get(a) in CEILINGS])
         for r in stats.improvement_of_pairs(scores, pairs, reps=reps).itertuples():
             seeds = min(len(scores[r.algorithm]), len(scores[r.other]))
             rows.append(

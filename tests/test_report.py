@@ -321,3 +321,11 @@ def test_ceiling_of_matches_a_variant_suffix_else_the_plain_oracle():
     assert report.ceiling_of("gaifo", methods) == "oracle"
     assert report.ceiling_of("gail-x", methods | {"gail-x": "gail"}) == "oracle"
     assert report.ceiling_of("gaifo", {"gaifo": "gaifo"}) is None
+    sac = {
+        "gaifo": "gaifo",
+        "gaifo-sac": "gaifo-sac",
+        "oracle": "oracle",
+        "oracle-sac": "oracle-sac",
+    }
+    assert report.ceiling_of("gaifo-sac", sac) == "oracle-sac"  # each optimizer's own ceiling
+    assert report.ceiling_of("gaifo", sac) == "oracle"

@@ -1,0 +1,219 @@
+"""The off-policy family: GAIfO and GAIL on SAC with absorbing states (DAC, Kostrikov et al.
+2019; GAIfO on it is "DACfO"), and the two controls on the same optimizer, so every
+comparison among them stays matched.
+
+Each SAC update samples a minibatch from the replay buffer; the discriminator D takes one
+step on it against as many expert transitions, and the critic learns from D's reward for
+that very minibatch, computed after the step: rewards always come from the current D, never
+from the one in force when a step was taken. D, its features ((s, s') for GAIfO, (s, a) for
+GAIL), its gradient penalty and its reward (the logit, either sign) are the on-policy
+learners' (`algorithms.adversarial`); what differs is the optimizer and how terminations are
+stored: DAC's way, (s, a, s_a) then the loop (s_a, 0, s_a) once, on both sides.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import torch
+import torch.nn.functional as F
+
+from algorithms.adversarial import REWARDS, Discriminator, Features
+from algorithms.gaifo import state_transition
+from algorithms.gail import state_action
+from bench.registry import Logger, Policy, Task, register
+from bench.rl import sac
+from bench.rl.absorbing import Transitions
+from bench.rl.networks import RunningNorm
+from bench.types import ActionDemos, Demos
+
+
+@dataclass
+class OffPolicyConfig(sac.SACConfig):
+    """SAC as the off-policy learners and their controls run it."""
+
+
+@dataclass
+class OffPolicyAdversarialConfig(OffPolicyConfig):
+    """The off-policy imitators' SAC settings plus D's (as the on-policy learners' D)."""
+
+    disc_hidden: tuple[int, ...] = (100, 100)
+    """Hidden layer sizes of the discriminator MLP (tanh)."""
+    disc_lr: float = 3e-4
+    """Adam learning rate of the discriminator."""
+    grad_penalty: float = 10.0
+    """Weight of the zero-centred gradient penalty on expert/policy interpolates."""
+    reward: str = "log D - log(1-D)"
+    """Reward as a function of D: see `algorithms.adversarial.AdversarialConfig.reward`."""
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        self.disc_hidden = tuple(self.disc_hidden)
+        if self.reward not in REWARDS:
+            raise ValueError(f"reward must be one of {', '.join(map(repr, REWARDS))}")
+        if not (self.disc_lr > 0 and self.grad_penalty >= 0):
+            raise ValueError("need disc_lr > 0 and grad_penalty >= 0")
+
+
+def sac_budget(config: OffPolicyConfig) -> int:
+    """Fewest env steps to learn anything: the random steps before the first update, plus one."""
+    return config.learning_starts + config.n_envs
+
+
+def replay_transitions(batch: sac.ReplayBatch) -> Transitions:
+    """A replay minibatch as D reads transitions."""
+    return Transitions(
+        batch.raw("obs"),
+        batch.actions,
+        batch.raw("next_obs"),
+        batch.obs_absorbing,
+        batch.next_absorbing,
+        torch.ones(len(batch.obs)),
+    )
+
+
+def expert_replay(
+    demos: Demos, actions: tuple[np.ndarray, ...] | None, act_dim: int, absorbing: bool
+) -> sac.ReplayBatch:
+    """Every demonstrated transition, stored as the agent's are (`sac.transitions_of_step`):
+    a terminated demonstration's last step leads into the absorbing loop."""
+    rows = []
+    for k, o in enumerate(demos.observations):
+        a = actions[k] if actions is not None else np.zeros((len(o) - 1, act_dim), np.float32)
+        ended = np.zeros(len(o) - 1, bool)
+        ended[-1] = demos.terminated[k]
+        rows.append(sac.transitions_of_step(o[:-1], a, o[1:], np.zeros(len(a)), ended, absorbing))
+    return sac.ReplayBatch(*(torch.from_numpy(np.concatenate(x)) for x in zip(*rows, strict=True)))
+
+
+def current_d_reward(
+    disc: Discriminator,
+    expert: sac.ReplayBatch,
+    cfg: OffPolicyAdversarialConfig,
+    seed: int,
+    stats: dict[str, float],
+) -> sac.SACRewardFn:
+    """The critic's reward hook: for each replay minibatch, one Adam step of D on it against
+    as many expert transitions, then D's reward for that minibatch from D as it is after the
+    step. Its diagnostics go to `stats`."""
+    opt = torch.optim.Adam(disc.net.parameters(), lr=cfg.disc_lr)
+    gen = torch.Generator().manual_seed(seed + 2)
+    reward = REWARDS[cfg.reward]
+
+    def reward_fn(batch: sac.ReplayBatch) -> torch.Tensor:
+        idx = torch.randint(len(expert.obs), (len(batch.obs),), generator=gen)
+        e_batch = sac.ReplayBatch(*(x[idx] for x in vars(expert).values()))
+        p = disc.inputs(replay_transitions(batch))
+        e = disc.inputs(replay_transitions(e_batch))
+        logit_p, logit_e = disc.net(p).squeeze(-1), disc.net(e).squeeze(-1)
+        bce = F.binary_cross_entropy_with_logits(
+            logit_p, torch.zeros_like(logit_p)
+        ) + F.binary_cross_entropy_with_logits(logit_e, torch.ones_like(logit_e))
+        alpha = torch.rand(len(p), 1, generator=gen)
+        mix = (alpha * e + (1 - alpha) * p).detach().requires_grad_(True)
+        grad = torch.autograd.grad(disc.net(mix).sum(), mix, create_graph=True)[0]
+        penalty = grad.norm(dim=1).square().mean()
+        opt.zero_grad()
+        (bce + cfg.grad_penalty * penalty).backward()
+        opt.step()
+        with torch.no_grad():  # the reward of this very minibatch, from D as it is now
+            rewards = reward(disc.net(p).squeeze(-1))
+        stats.update(
+            disc_loss=bce.item(),
+            disc_acc_policy=(logit_p < 0).float().mean().item(),
+            disc_acc_expert=(logit_e > 0).float().mean().item(),
+            reward_mean=rewards.mean().item(),
+        )
+        return rewards
+
+    return reward_fn
+
+
+def train_offpolicy_adversarial(
+    task: Task,
+    demos: Demos,
+    expert_actions: tuple[np.ndarray, ...] | None,
+    features: Features,
+    budget: int,
+    seed: int,
+    logger: Logger,
+    cfg: OffPolicyAdversarialConfig,
+) -> Policy:
+    expert = expert_replay(demos, expert_actions, task.act_dim, cfg.absorbing)
+    norm = RunningNorm(task.obs_dim)  # D's scale: the expert's states, fixed
+    norm.update(np.concatenate(demos.observations))
+    disc = Discriminator(norm, features, task.obs_dim, task.act_dim, cfg.disc_hidden, True)
+    stats: dict[str, float] = {}
+    reward_fn = current_d_reward(disc, expert, cfg, seed, stats)
+    return _train(task, budget, seed, logger, cfg, reward_fn, stats)
+
+
+def _train(
+    task: Task,
+    budget: int,
+    seed: int,
+    logger: Logger,
+    cfg: OffPolicyConfig,
+    reward_fn: sac.SACRewardFn | None,
+    stats: dict[str, float] | None = None,
+) -> Policy:
+    """SAC on `reward_fn` (None: the env's), logging and offering its policy as it goes."""
+
+    def report(steps: int, learner: sac.SAC, info: dict[str, float]) -> None:
+        logger.log(steps, **info, **(stats or {}))
+        logger.checkpoint(steps, sac.DeterministicActor(learner.actor))
+
+    learner = sac.train(task.make_env, budget, seed, cfg, reward_fn, callback=report)
+    return sac.DeterministicActor(learner.actor)
+
+
+@register(
+    "gaifo-sac",
+    config=OffPolicyAdversarialConfig,
+    inputs="states",
+    description="GAIfO on SAC with absorbing states (DACfO): D on (s, s')",
+    min_budget=sac_budget,
+)
+def train_gaifo(task: Task, demos: Demos, budget: int, seed: int, logger: Logger, config) -> Policy:
+    return train_offpolicy_adversarial(
+        task, demos, None, state_transition, budget, seed, logger, config
+    )
+
+
+@register(
+    "gail-sac",
+    config=OffPolicyAdversarialConfig,
+    inputs="actions",
+    description="GAIL on SAC with absorbing states (DAC): D on (s, a)",
+    min_budget=sac_budget,
+)
+def train_gail(
+    task: Task, demos: ActionDemos, budget: int, seed: int, logger: Logger, config
+) -> Policy:
+    return train_offpolicy_adversarial(
+        task, demos.demos, demos.actions, state_action, budget, seed, logger, config
+    )
+
+
+@register(
+    "survival-sac",
+    config=OffPolicyConfig,
+    inputs="none",
+    description="control: SAC on +1 per step alive, no demos",
+    min_budget=sac_budget,
+)
+def train_survival(task: Task, demos: None, budget: int, seed: int, logger: Logger, config):
+    # +1 for every real step (the one into the absorbing state included), 0 on the loop
+    return _train(task, budget, seed, logger, config, lambda b: (~b.obs_absorbing).float())
+
+
+@register(
+    "oracle-sac",
+    config=OffPolicyConfig,
+    inputs="none",
+    description="control: SAC on the env's reward, no demos",
+    min_budget=sac_budget,
+)
+def train_oracle(task: Task, demos: None, budget: int, seed: int, logger: Logger, config):
+    return _train(task, budget, seed, logger, config, None)

@@ -1,0 +1,342 @@
+"""Soft Actor-Critic (Haarnoja et al. 2018), the off-policy optimizer, with absorbing states.
+
+Reads top to bottom: config, the replay buffer, the networks, one update, and the training
+loop. As with TRPO (`bench.rl.trpo`) the reward is pluggable: `reward_fn(batch)` is called on
+every minibatch the critic learns from, so a learned reward is always the current one (DAC's
+recipe, Kostrikov et al. 2019) rather than the one in force when the step was taken.
+
+Terminations. With `absorbing` (the default), an episode that terminates leads into an
+absorbing state that loops on itself for ever, as DAC stores it: the last step is stored as
+(s, a, s_a) and the loop once as (s_a, 0, s_a), and nothing is masked as "done", so the reward
+of the absorbing state, whatever a learned reward makes of it, decides what ending an episode
+is worth (`bench.rl.absorbing` says why). An absorbing observation is all zeros with a flag
+set; every network reads observations with that flag appended. Truncation (a time limit) is
+not an end: it bootstraps as usual. With `absorbing: false` a termination is masked (Q of
+what follows is 0), the textbook SAC.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import gymnasium as gym
+import numpy as np
+import torch
+import torch.nn.functional as F
+from torch import nn
+
+from bench.rl.absorbing import FLAG
+from bench.rl.networks import mlp
+
+
+@dataclass
+class SACConfig:
+    hidden: tuple[int, ...] = (256, 256)
+    """Hidden layer sizes of the actor and of each critic (ReLU)."""
+    gamma: float = 0.99
+    """Discount factor."""
+    tau: float = 0.005
+    """Polyak step of the target critics towards the critics, per update."""
+    lr: float = 3e-4
+    """Adam learning rate of actor, critics and temperature."""
+    batch_size: int = 256
+    """Transitions per update."""
+    buffer_size: int = 1_000_000
+    """Transitions the replay buffer holds (the oldest go first)."""
+    learning_starts: int = 5_000
+    """Env steps of uniform random actions before the first update."""
+    updates_per_step: float = 1.0
+    """Updates per env step (the update-to-data ratio); below 1, an update every few steps."""
+    n_envs: int = 1
+    """Envs stepped side by side (one batched actor forward per step)."""
+    absorbing: bool = True
+    """Terminations lead into an absorbing state (DAC); off: they are masked."""
+
+    def __post_init__(self) -> None:
+        self.hidden = tuple(self.hidden)
+        for name in ("batch_size", "buffer_size", "n_envs"):
+            if getattr(self, name) < 1:
+                raise ValueError(f"{name} must be >= 1, not {getattr(self, name)}")
+        if not (0 < self.gamma < 1 and 0 < self.tau <= 1 and self.lr > 0):
+            raise ValueError("need 0 < gamma < 1, 0 < tau <= 1 and lr > 0")
+        if self.updates_per_step <= 0 or self.learning_starts < 0:
+            raise ValueError("need updates_per_step > 0 and learning_starts >= 0")
+
+
+# ---------------------------------------------------------------- replay
+
+
+@dataclass
+class ReplayBatch:
+    """A minibatch of transitions as torch tensors; observations with the absorbing flag last."""
+
+    obs: torch.Tensor
+    """(B, O+1)"""
+    actions: torch.Tensor
+    """(B, A); zeros on the absorbing loop."""
+    next_obs: torch.Tensor
+    """(B, O+1)"""
+    env_rewards: torch.Tensor
+    """(B,) the env's reward; 0 into and on the absorbing loop after it."""
+    not_done: torch.Tensor
+    """(B,) 0 where a termination is masked (absorbing off), else 1."""
+
+    @property
+    def obs_absorbing(self) -> torch.Tensor:
+        return self.obs[:, -1] > 0
+
+    @property
+    def next_absorbing(self) -> torch.Tensor:
+        return self.next_obs[:, -1] > 0
+
+    def raw(self, which: str) -> torch.Tensor:
+        """`obs` or `next_obs` without the flag column."""
+        return getattr(self, which)[:, :-1]
+
+
+class ReplayBuffer:
+    """A ring buffer of transitions in preallocated arrays; observations stored with their flag."""
+
+    def __init__(self, obs_dim: int, act_dim: int, size: int, seed: int) -> None:
+        self.obs = np.zeros((size, obs_dim + 1), np.float32)
+        self.next_obs = np.zeros((size, obs_dim + 1), np.float32)
+        self.actions = np.zeros((size, act_dim), np.float32)
+        self.env_rewards = np.zeros(size, np.float32)
+        self.not_done = np.ones(size, np.float32)
+        self.size, self.count, self.cursor = size, 0, 0
+        self.rng = np.random.default_rng(seed)
+
+    def add(self, obs, actions, next_obs, env_rewards, not_done) -> None:
+        """Append n rows (observations (n, O+1), flag included), overwriting the oldest."""
+        rows = (self.cursor + np.arange(len(obs))) % self.size
+        self.obs[rows], self.actions[rows], self.next_obs[rows] = obs, actions, next_obs
+        self.env_rewards[rows], self.not_done[rows] = env_rewards, not_done
+        self.cursor = int(rows[-1] + 1) % self.size
+        self.count = min(self.count + len(obs), self.size)
+
+    def sample(self, n: int, device: str = "cpu") -> ReplayBatch:
+        idx = self.rng.integers(self.count, size=n)
+        fields = (self.obs, self.actions, self.next_obs, self.env_rewards, self.not_done)
+        return ReplayBatch(*(torch.from_numpy(x[idx]).to(device) for x in fields))
+
+
+def flagged(obs: np.ndarray, absorbing: bool = False) -> np.ndarray:
+    """(n, O) observations -> (n, O+1): the flag column appended (FLAG and zeros if absorbing)."""
+    obs = np.asarray(obs, np.float32).reshape(len(obs), -1)
+    if absorbing:
+        out = np.zeros((len(obs), obs.shape[1] + 1), np.float32)
+        out[:, -1] = FLAG
+        return out
+    return np.concatenate([obs, np.zeros((len(obs), 1), np.float32)], axis=1)
+
+
+def transitions_of_step(obs, actions, next_obs, rewards, terminated, absorbing: bool) -> tuple:
+    """One vectorized env step's rows for the buffer: (obs, actions, next_obs, rewards,
+    not_done), each (n, ...). A terminated env's row leads into the absorbing state, and the
+    absorbing loop is added once (with `absorbing`), or is masked (without)."""
+    n, act_dim = len(obs), actions.shape[1]
+    s, s_next = flagged(obs), flagged(next_obs)
+    not_done = np.ones(n, np.float32)
+    rewards = np.asarray(rewards, np.float32)
+    if not absorbing:
+        return s, actions, s_next, rewards, np.where(terminated, 0.0, 1.0).astype(np.float32)
+    ended = np.flatnonzero(terminated)
+    if len(ended) == 0:
+        return s, actions, s_next, rewards, not_done
+    s_next[ended] = flagged(next_obs[ended], absorbing=True)
+    loop = flagged(np.zeros((len(ended), obs.shape[1])), absorbing=True)
+    return (
+        np.concatenate([s, loop]),
+        np.concatenate([actions, np.zeros((len(ended), act_dim), np.float32)]),
+        np.concatenate([s_next, loop]),
+        np.concatenate([rewards, np.zeros(len(ended), np.float32)]),
+        np.ones(n + len(ended), np.float32),
+    )
+
+
+# ---------------------------------------------------------------- networks
+
+
+class Actor(nn.Module):
+    """tanh-squashed Gaussian over actions, scaled to the env's bounds."""
+
+    def __init__(self, obs_dim: int, act_dim: int, hidden: tuple[int, ...], low, high) -> None:
+        super().__init__()
+        self.net = mlp([obs_dim + 1, *hidden, 2 * act_dim], activation=nn.ReLU)
+        self.register_buffer("scale", torch.as_tensor((high - low) / 2, dtype=torch.float32))
+        self.register_buffer("centre", torch.as_tensor((high + low) / 2, dtype=torch.float32))
+
+    def forward(self, obs: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        mean, log_std = self.net(obs).chunk(2, dim=-1)
+        return mean, log_std.clamp(-5.0, 2.0)
+
+    def sample(self, obs: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        """Actions and their log densities, reparameterized (gradients flow through)."""
+        mean, log_std = self(obs)
+        u = mean + log_std.exp() * torch.randn_like(mean)
+        squashed = torch.tanh(u)
+        log_prob = (
+            torch.distributions.Normal(mean, log_std.exp()).log_prob(u)
+            - torch.log(self.scale * (1 - squashed.square()) + 1e-6)
+        ).sum(-1)
+        return squashed * self.scale + self.centre, log_prob
+
+    def act(self, obs: torch.Tensor) -> torch.Tensor:
+        """The deterministic action: the squashed mean."""
+        return torch.tanh(self(obs)[0]) * self.scale + self.centre
+
+
+class TwinQ(nn.Module):
+    def __init__(self, obs_dim: int, act_dim: int, hidden: tuple[int, ...]) -> None:
+        super().__init__()
+        self.q1 = mlp([obs_dim + 1 + act_dim, *hidden, 1], activation=nn.ReLU)
+        self.q2 = mlp([obs_dim + 1 + act_dim, *hidden, 1], activation=nn.ReLU)
+
+    def forward(self, obs: torch.Tensor, actions: torch.Tensor) -> tuple[torch.Tensor, ...]:
+        x = torch.cat([obs, actions], dim=-1)
+        return self.q1(x).squeeze(-1), self.q2(x).squeeze(-1)
+
+
+class DeterministicActor:
+    """numpy in, numpy out: what the runner evaluates (observations get their flag, 0)."""
+
+    def __init__(self, actor: Actor) -> None:
+        import copy
+
+        self.actor = copy.deepcopy(actor).cpu().eval()
+
+    @torch.no_grad()
+    def __call__(self, obs: np.ndarray) -> np.ndarray:
+        return self.actor.act(torch.from_numpy(flagged(obs))).numpy()
+
+
+# ---------------------------------------------------------------- the learner
+
+
+SACRewardFn = Callable[[ReplayBatch], torch.Tensor]
+"""reward_fn(batch) -> (B,) rewards of a minibatch, e.g. from the current discriminator."""
+
+
+class SAC:
+    def __init__(self, obs_dim: int, act_dim: int, low, high, cfg: SACConfig, seed: int) -> None:
+        torch.manual_seed(seed)
+        self.cfg, self.act_dim = cfg, act_dim
+        self.actor = Actor(obs_dim, act_dim, cfg.hidden, low, high)
+        self.critic = TwinQ(obs_dim, act_dim, cfg.hidden)
+        self.target = TwinQ(obs_dim, act_dim, cfg.hidden)
+        self.target.load_state_dict(self.critic.state_dict())
+        self.log_alpha = torch.zeros(1, requires_grad=True)
+        self.target_entropy = -float(act_dim)
+        self.actor_opt = torch.optim.Adam(self.actor.parameters(), lr=cfg.lr)
+        self.critic_opt = torch.optim.Adam(self.critic.parameters(), lr=cfg.lr)
+        self.alpha_opt = torch.optim.Adam([self.log_alpha], lr=cfg.lr)
+        self.buffer = ReplayBuffer(obs_dim, act_dim, cfg.buffer_size, seed)
+
+    def update(self, batch: ReplayBatch, rewards: torch.Tensor) -> dict[str, float]:
+        """One step of critics, actor and temperature on `batch` with `rewards` (B,)."""
+        alpha = self.log_alpha.exp().detach()
+        with torch.no_grad():
+            next_actions, next_log_prob = self.actor.sample(batch.next_obs)
+            q_next = torch.min(*self.target(batch.next_obs, next_actions))
+            soft_next = q_next - alpha * next_log_prob
+            target = rewards + self.cfg.gamma * batch.not_done * soft_next
+        q1, q2 = self.critic(batch.obs, batch.actions)
+        critic_loss = F.mse_loss(q1, target) + F.mse_loss(q2, target)
+        self.critic_opt.zero_grad()
+        critic_loss.backward()
+        self.critic_opt.step()
+
+        actions, log_prob = self.actor.sample(batch.obs)
+        q = torch.min(*self.critic(batch.obs, actions))
+        actor_loss = (alpha * log_prob - q).mean()
+        self.actor_opt.zero_grad()
+        actor_loss.backward()
+        self.actor_opt.step()
+
+        alpha_loss = -(self.log_alpha * (log_prob.detach() + self.target_entropy)).mean()
+        self.alpha_opt.zero_grad()
+        alpha_loss.backward()
+        self.alpha_opt.step()
+
+        with torch.no_grad():
+            for mine, theirs in zip(
+                self.target.parameters(), self.critic.parameters(), strict=True
+            ):
+                mine.lerp_(theirs, self.cfg.tau)
+        return {
+            "critic_loss": critic_loss.item(),
+            "actor_loss": actor_loss.item(),
+            "alpha": alpha.item(),
+            "entropy": -log_prob.mean().item(),
+        }
+
+
+Callback = Callable[[int, SAC, dict[str, float]], None]
+"""callback(env_steps_so_far, learner, last_update_info and seconds spent collecting and
+updating so far), every `report_every` env steps."""
+
+
+def train(
+    make_env: Callable[[int], gym.Env],
+    budget: int,
+    seed: int,
+    cfg: SACConfig,
+    reward_fn: SACRewardFn | None = None,
+    callback: Callback | None = None,
+    report_every: int | None = None,
+) -> SAC:
+    """Run SAC for `budget` env steps and return the learner. Without `reward_fn` it learns
+    from the env's reward (0 on the absorbing loop). `callback` runs every `report_every` env
+    steps (default: a twentieth of the budget, at most 5,000)."""
+    report_every = report_every or min(5_000, max(1, budget // 20))
+    torch.set_num_threads(1)
+    envs = [make_env(seed * 1000 + i) for i in range(cfg.n_envs)]
+    space = envs[0].action_space
+    low, high = space.low.astype(np.float32), space.high.astype(np.float32)
+    obs = np.stack([env.reset(seed=seed * 1000 + i)[0] for i, env in enumerate(envs)])
+    obs = obs.astype(np.float32).reshape(len(envs), -1)
+    learner = SAC(obs.shape[1], len(low), low, high, cfg, seed)
+    buffer = learner.buffer
+    rng = np.random.default_rng(seed)
+    reward = reward_fn or (lambda batch: batch.env_rewards)
+    steps, owed, info, next_report = 0, 0.0, {}, report_every
+    clock = {"collect_s": 0.0, "update_s": 0.0}
+    try:
+        while steps + len(envs) <= budget:
+            t0 = time.perf_counter()
+            if steps < cfg.learning_starts:
+                actions = rng.uniform(low, high, size=(len(envs), len(low))).astype(np.float32)
+            else:
+                with torch.no_grad():
+                    actions = learner.actor.sample(torch.from_numpy(flagged(obs)))[0].numpy()
+            before = obs.copy()
+            next_obs = np.empty_like(obs)
+            rewards = np.empty(len(envs), np.float32)
+            terminated = np.zeros(len(envs), bool)
+            for i, env in enumerate(envs):
+                o, r, term, trunc, _ = env.step(actions[i])
+                next_obs[i], rewards[i], terminated[i] = np.ravel(o), r, term
+                obs[i] = np.ravel(env.reset()[0]) if term or trunc else next_obs[i]
+            rows = transitions_of_step(
+                before, actions, next_obs, rewards, terminated, cfg.absorbing
+            )
+            buffer.add(*rows)
+            steps += len(envs)
+            clock["collect_s"] += time.perf_counter() - t0
+            t1 = time.perf_counter()
+            if steps >= cfg.learning_starts:
+                owed += cfg.updates_per_step * len(envs)
+                while owed >= 1:
+                    batch = buffer.sample(cfg.batch_size)
+                    info = learner.update(batch, reward(batch))
+                    owed -= 1
+            clock["update_s"] += time.perf_counter() - t1
+            if callback is not None and steps >= next_report:
+                callback(steps, learner, {**info, **clock})
+                next_report += report_every
+    finally:
+        for env in envs:
+            env.close()
+    return learner

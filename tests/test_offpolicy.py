@@ -1,0 +1,100 @@
+"""The off-policy family (SAC with absorbing states; GAIfO, GAIL and the controls on it), for
+real at tiny budgets."""
+
+import numpy as np
+import pytest
+import torch
+
+from algorithms import offpolicy
+from bench import registry, store
+from bench.rl import sac
+from bench.rl.absorbing import FLAG
+from bench.runner import run_suite
+from bench.suite import expand, load_suite
+
+PENDULUM = "InvertedPendulumBulletEnv-v0"
+TINY = {"hidden": [16, 16], "learning_starts": 300, "batch_size": 32}
+
+pytestmark = pytest.mark.usefixtures("demo_cache")
+
+
+def test_a_termination_leads_into_the_absorbing_loop_and_a_truncation_does_not():
+    obs, next_obs = np.ones((3, 2), np.float32), np.full((3, 2), 2.0, np.float32)
+    actions = np.full((3, 1), 0.5, np.float32)
+    terminated = np.array([False, True, False])  # env 2 may have been truncated: not an end
+    s, a, s_next, r, not_done = sac.transitions_of_step(
+        obs, actions, next_obs, np.array([1.0, 1.0, 1.0]), terminated, absorbing=True
+    )
+    assert len(s) == 4  # three steps, and the loop once for the one termination
+    assert s_next[1].tolist() == [0.0, 0.0, FLAG] and s_next[0].tolist() == [2.0, 2.0, 0.0]
+    assert s[3].tolist() == s_next[3].tolist() == [0.0, 0.0, FLAG]
+    assert a[3].tolist() == [0.0] and r.tolist() == [1.0, 1.0, 1.0, 0.0]
+    assert not_done.tolist() == [1.0] * 4  # nothing masked: the loop's reward decides
+    _, _, _, _, masked = sac.transitions_of_step(
+        obs, actions, next_obs, np.ones(3), terminated, absorbing=False
+    )
+    assert masked.tolist() == [1.0, 0.0, 1.0]
+
+
+def test_every_termination_reaches_the_buffer_as_an_absorbing_transition(pendulum):
+    from bench import envs
+
+    episodes = []
+
+    def count(steps, learner, info):
+        episodes.append(steps)
+
+    cfg = sac.SACConfig(**TINY)
+    learner = sac.train(lambda s: envs.make(pendulum, s), 600, 0, cfg, callback=count)
+    buffer = learner.buffer
+    rows = slice(0, buffer.count)
+    into = (buffer.next_obs[rows, -1] == FLAG) & (buffer.obs[rows, -1] == 0)
+    loop = (buffer.obs[rows, -1] == FLAG) & (buffer.next_obs[rows, -1] == FLAG)
+    assert into.sum() == loop.sum() > 10  # a random pendulum falls every ~25 steps
+    assert buffer.count == 600 + loop.sum()
+    assert (buffer.actions[rows][loop] == 0).all() and (buffer.env_rewards[rows][loop] == 0).all()
+    assert (buffer.not_done[rows] == 1).all()
+
+
+def test_rewards_come_from_the_current_discriminator(pendulum):
+    from bench import demos as demo_pool
+    from bench import envs
+    from bench.runner import demo_pool as pool_of
+
+    demos = demo_pool.load_demos(pool_of(pendulum, None), pendulum, 2, 0)
+    obs_dim = envs.spaces(pendulum)[0]
+    cfg = offpolicy.OffPolicyAdversarialConfig(**TINY)
+    expert = offpolicy.expert_replay(demos, None, 1, absorbing=True)
+    norm = offpolicy.RunningNorm(obs_dim)
+    norm.update(np.concatenate(demos.observations))
+    disc = offpolicy.Discriminator(norm, offpolicy.state_transition, obs_dim, 1, (16, 16), True)
+    stats = {}
+    reward_fn = offpolicy.current_d_reward(disc, expert, cfg, 0, stats)
+    batch = sac.ReplayBatch(*(x[:32] for x in vars(expert).values()))  # any transitions
+    first = reward_fn(batch)
+    with torch.no_grad():
+        now = disc.net(disc.inputs(offpolicy.replay_transitions(batch))).squeeze(-1)
+    assert torch.equal(first, now)  # D after its step on this very minibatch
+    assert not torch.equal(reward_fn(batch), first)  # and D moves on every minibatch
+    assert {"disc_loss", "disc_acc_policy", "disc_acc_expert"} <= set(stats)
+
+
+def test_the_controls_are_matched_and_every_off_policy_learner_runs(tmp_path):
+    algos = registry.all_algorithms()
+    for name in ("survival-sac", "oracle-sac"):
+        assert algos[name].config is offpolicy.OffPolicyConfig
+    for name in ("gaifo-sac", "gail-sac"):
+        assert issubclass(algos[name].config, offpolicy.OffPolicyConfig)
+    tiny = "{hidden: [16, 16], learning_starts: 300, batch_size: 32}"
+    (tmp_path / "s.yaml").write_text(
+        f"name: sac\nenvs: {{{PENDULUM}: {{budget: 800}}}}\ndemos: [1]\nalgorithms: [random,"
+        f" expert, gaifo-sac: {tiny}, gail-sac: {tiny}, survival-sac: {tiny},"
+        f" oracle-sac: {tiny}]\nseeds: 1\neval_episodes: 2\n"
+    )
+    specs = expand(load_suite(tmp_path / "s.yaml"))
+    assert run_suite(specs, tmp_path / "res", jobs=2, progress=False).failed == 0
+    records = {r.spec.algorithm: r for r in store.scan(tmp_path / "res")}
+    assert all(r.env_steps == 800 for name, r in records.items() if name.endswith("-sac"))
+    assert "disc_acc_expert" in records["gaifo-sac"].logs
+    # InvertedPendulum pays +1 per step alive: there the two controls are one learner
+    assert records["oracle-sac"].returns == records["survival-sac"].returns
