@@ -17,6 +17,7 @@ import torch
 
 from bench import atomic
 from bench.rl.networks import DeterministicPolicy
+from bench.rl.sac import DeterministicActor
 
 FOLDER = "policies"
 
@@ -25,9 +26,13 @@ def path(results_dir: str | Path, trial_id: str) -> Path:
     return Path(results_dir) / FOLDER / f"{trial_id}.pt"
 
 
+KINDS = {"gaussian-mean": DeterministicPolicy, "sac-actor": DeterministicActor}
+"""What a file's `kind` rebuilds: the TRPO learners' mean policy, SAC's squashed-mean actor."""
+
+
 def to_bytes(policy: object) -> bytes | None:
     """The file's bytes for a network policy; None for one without weights (random)."""
-    if not isinstance(policy, DeterministicPolicy):
+    if not isinstance(policy, tuple(KINDS.values())):
         return None
     buffer = io.BytesIO()
     torch.save(policy.state(), buffer)
@@ -38,6 +43,7 @@ def write(results_dir: str | Path, trial_id: str, data: bytes) -> Path:
     return atomic.write_bytes(path(results_dir, trial_id), data)
 
 
-def load(file: str | Path) -> DeterministicPolicy:
-    """The policy saved in `file`, ready to act: numpy observations in, clipped actions out."""
-    return DeterministicPolicy.from_state(torch.load(file, weights_only=True))
+def load(file: str | Path) -> DeterministicPolicy | DeterministicActor:
+    """The policy saved in `file`, ready to act: numpy observations in, actions out."""
+    state = torch.load(file, weights_only=True)
+    return KINDS[state["kind"]].from_state(state)

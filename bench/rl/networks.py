@@ -237,6 +237,7 @@ class DeterministicPolicy:
         obs_shape = list(norm.shape) if isinstance(norm, PixelScale) else [norm.mean.numel()]
         layers = [m for m in self.policy.mean_net.modules() if isinstance(m, nn.Linear)]
         return {
+            "kind": "gaussian-mean",
             "obs_shape": obs_shape,
             "act_dim": layers[-1].out_features,
             "hidden": [layer.out_features for layer in layers[:-1]],

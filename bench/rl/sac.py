@@ -17,6 +17,7 @@ what follows is 0), the textbook SAC.
 
 from __future__ import annotations
 
+import copy
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -203,13 +204,30 @@ class DeterministicActor:
     """numpy in, numpy out: what the runner evaluates (observations get their flag, 0)."""
 
     def __init__(self, actor: Actor) -> None:
-        import copy
-
         self.actor = copy.deepcopy(actor).cpu().eval()
 
     @torch.no_grad()
     def __call__(self, obs: np.ndarray) -> np.ndarray:
         return self.actor.act(torch.from_numpy(flagged(obs))).numpy()
+
+    def state(self) -> dict:
+        """Everything needed to rebuild it, as tensors, numbers and lists (weights_only-safe)."""
+        layers = [m for m in self.actor.net.modules() if isinstance(m, nn.Linear)]
+        return {
+            "kind": "sac-actor",
+            "obs_dim": layers[0].in_features - 1,
+            "act_dim": layers[-1].out_features // 2,
+            "hidden": [layer.out_features for layer in layers[:-1]],
+            "weights": self.actor.state_dict(),
+        }
+
+    @classmethod
+    def from_state(cls, state: dict) -> DeterministicActor:
+        scale, centre = state["weights"]["scale"], state["weights"]["centre"]
+        low, high = (centre - scale).numpy(), (centre + scale).numpy()
+        actor = Actor(state["obs_dim"], state["act_dim"], tuple(state["hidden"]), low, high)
+        actor.load_state_dict(state["weights"])
+        return cls(actor)
 
 
 # ---------------------------------------------------------------- the learner
