@@ -189,7 +189,8 @@ def _run(args: argparse.Namespace) -> int:
 def _estimate(specs: list, results: Path, jobs: int) -> int:
     """Print what the pending trials would cost, from every record under results/'s parent."""
     from bench import store
-    from bench.runner import estimate, pending
+    from bench.costs import estimate
+    from bench.runner import pending
 
     finished = {r.trial_id: r.status for r in store.scan(results)}
     todo = pending(specs, finished, retry_failed=False)

@@ -24,7 +24,7 @@ from bench.normalize import ORACLE, REFERENCES, normalize
 from bench.pixels import PixelConfig
 from bench.registry import Policy
 from bench.rl.networks import observation
-from bench.runner import EVAL_SEED, make_env, pixels
+from bench.trial import EVAL_SEED, make_env, pixels
 from bench.types import TrialSpec
 
 TITLE_HEIGHT = 22

@@ -23,7 +23,7 @@ import torch
 
 from bench import envs, experts, registry
 from bench.rl.rollout import evaluate
-from bench.runner import make_task, trial_inputs
+from bench.trial import make_task, trial_inputs
 from bench.types import TrialSpec
 
 

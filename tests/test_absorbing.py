@@ -84,7 +84,7 @@ def test_discriminator_learns_that_falling_is_not_expert_like(tmp_path, monkeypa
     dozen steps. Within a few updates D must judge the absorbing state as the policy's: the
     signed reward there turns negative, so falling costs for the rest of the horizon."""
     from bench import demos, paths
-    from bench.runner import run_trial
+    from bench.trial import run_trial
     from bench.types import TrialSpec
 
     monkeypatch.setattr(paths, "CACHE_DIR", tmp_path / "cache")

@@ -9,7 +9,7 @@ import torch
 from algorithms import bco, tcn
 from bench import envs, registry
 from bench.rl.rollout import VecCollector
-from bench.runner import run_trial, trial_inputs
+from bench.trial import run_trial, trial_inputs
 from bench.types import Demos, TrialSpec
 
 PENDULUM = "InvertedPendulumBulletEnv-v0"

@@ -59,7 +59,7 @@ def test_every_termination_reaches_the_buffer_as_an_absorbing_transition(pendulu
 def test_rewards_come_from_the_current_discriminator(pendulum):
     from bench import demos as demo_pool
     from bench import envs
-    from bench.runner import demo_pool as pool_of
+    from bench.trial import demo_pool as pool_of
 
     demos = demo_pool.load_demos(pool_of(pendulum, None), pendulum, 2, 0)
     obs_dim = envs.spaces(pendulum)[0]
@@ -100,7 +100,7 @@ def test_the_controls_are_matched_and_every_off_policy_learner_runs(tmp_path):
     assert records["oracle-sac"].returns == records["survival-sac"].returns
     from bench import policies
     from bench.rl.rollout import evaluate
-    from bench.runner import EVAL_SEED, make_env
+    from bench.trial import EVAL_SEED, make_env
 
     spec = records["gaifo-sac"].spec  # its kept policy acts as it did when scored
     policy = policies.load(policies.path(tmp_path / "res", spec.trial_id))

@@ -6,8 +6,9 @@ import torch
 from bench import policies, store
 from bench.reuse import reuse
 from bench.rl.rollout import evaluate
-from bench.runner import EVAL_SEED, make_env, run_suite
+from bench.runner import run_suite
 from bench.suite import expand, load_suite
+from bench.trial import EVAL_SEED, make_env
 
 PENDULUM = "InvertedPendulumBulletEnv-v0"
 
@@ -102,7 +103,7 @@ def test_a_video_of_nothing_is_one_line(finished, tmp_path, cli, args, message):
 def test_every_logged_scalar_is_a_tensorboard_event(finished):
     from tensorboard.backend.event_processing.event_accumulator import EventAccumulator
 
-    from bench.runner import event_dir
+    from bench.trial import event_dir
 
     specs, root = finished
     for spec in specs:

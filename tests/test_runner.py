@@ -14,7 +14,8 @@ import pytest
 from matplotlib.patches import Rectangle
 
 from bench import normalize, plot, store
-from bench.runner import CostModel, _jobs, estimate, run_suite
+from bench.costs import CostModel, estimate
+from bench.runner import _jobs, run_suite
 from bench.suite import expand, load_suite
 from bench.types import TrialResult, TrialSpec
 

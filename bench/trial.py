@@ -1,0 +1,252 @@
+"""One trial, in a worker: `run_trial(spec, inputs) -> TrialResult`.
+
+A trial's spec says everything: the algorithm, the env as its algorithm observes it (states,
+frames, or states filmed beside for a video reward), the demonstrations it is handed, the
+budget its envs count every step against, and how it is evaluated. Nothing here writes a
+file: the driver (`bench.runner`) writes records and policies as results come back.
+"""
+
+from __future__ import annotations
+
+import time
+import traceback
+from dataclasses import dataclass, field
+from importlib.metadata import version
+from pathlib import Path
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+import torch
+
+from bench import demos, envs, experts, minari_io, policies, registry, state_match
+from bench.pixels import PixelConfig, VideoBeside
+from bench.rl.rollout import evaluate
+from bench.types import CurvePoint, TrialResult, TrialSpec
+
+CURVE_POINTS = 10
+"""Learning-curve evaluations per trial (at most; when the algorithm offers checkpoints)."""
+CURVE_EPISODES = 5
+"""Episodes per learning-curve point; the final evaluation uses the suite's eval_episodes."""
+EVAL_SEED = 100_000
+"""Evaluation episodes of seed s start at env seed EVAL_SEED + 1000 s: the same for every algorithm."""
+
+
+class BudgetExceeded(RuntimeError):
+    pass
+
+
+class StepCounter(gym.Wrapper):
+    """Counts every step into a shared tally and stops the trial past its budget."""
+
+    def __init__(self, env: gym.Env, tally: list[int], budget: int) -> None:
+        super().__init__(env)
+        self.tally, self.budget = tally, budget
+
+    def step(self, action):
+        self.tally[0] += 1
+        if self.tally[0] > self.budget:
+            raise BudgetExceeded(f"algorithm took more than its budget of {self.budget} env steps")
+        return self.env.step(action)
+
+
+@dataclass
+class TrialLogger:
+    """The runner's side of `registry.Logger`: evaluates offered checkpoints on a schedule."""
+
+    eval_envs: list[gym.Env]
+    eval_seed: int
+    every: int
+    curve: list[CurvePoint] = field(default_factory=list)
+    logs: dict[str, list[float]] = field(default_factory=dict)
+    _next: int = 0
+
+    events: Any = None
+    """A TensorBoard SummaryWriter that gets every scalar as it is logged (None: records only)."""
+
+    def checkpoint(self, env_steps: int, policy: registry.Policy) -> None:
+        if env_steps >= self._next:
+            rets = evaluate(policy, self.eval_envs, CURVE_EPISODES, self.eval_seed)
+            self.curve.append(CurvePoint(int(env_steps), float(np.mean(rets))))
+            self._next = env_steps + self.every
+            if self.events is not None:
+                self.events.add_scalar("eval/return", self.curve[-1].mean_return, int(env_steps))
+
+    def log(self, env_steps: int, **scalars: float) -> None:
+        self.logs.setdefault("env_steps", []).append(float(env_steps))
+        for k, v in scalars.items():
+            self.logs.setdefault(k, []).append(float(v))
+            if self.events is not None:
+                self.events.add_scalar(f"train/{k}", float(v), int(env_steps))
+
+
+def event_dir(root: str | Path, spec: TrialSpec) -> Path:
+    """Where a trial's TensorBoard events go under `root`: one run per trial, named so that
+    TensorBoard's run filter reads env/algorithm/demos/seed."""
+    return (
+        Path(root)
+        / spec.suite
+        / spec.env_id
+        / spec.shown
+        / f"{spec.n_demos}demos"
+        / f"seed{spec.seed}"
+    )
+
+
+def open_events(root: str | Path | None, spec: TrialSpec) -> Any:
+    """A SummaryWriter for the trial's events, or None without `root`."""
+    if root is None:
+        return None
+    from torch.utils.tensorboard import SummaryWriter
+
+    return SummaryWriter(str(event_dir(root, spec)), flush_secs=10)
+
+
+def versions() -> dict[str, str]:
+    return {pkg: version(pkg) for pkg in ("ifo-bench", "torch", "gymnasium", "pybullet")}
+
+
+def frames(spec: TrialSpec) -> PixelConfig:
+    """How a pixel or video-reward trial's frames are made."""
+    return PixelConfig() if spec.frame_size is None else PixelConfig(size=spec.frame_size)
+
+
+def pixels(spec: TrialSpec) -> PixelConfig | None:
+    """How the trial's algorithm sees its env: frames in a pixel suite env (the expert, which
+    cannot learn from them, acts on states there too), else None (states)."""
+    if spec.observation == "pixels" and registry.get(spec.algorithm).pixels:
+        return frames(spec)
+    return None
+
+
+def beside(spec: TrialSpec) -> PixelConfig | None:
+    """Frames filmed beside the state, in a video-reward env, for an algorithm that imitates
+    video while acting on states; else None."""
+    if spec.observation == "video-reward" and registry.get(spec.algorithm).video_reward:
+        return frames(spec)
+    return None
+
+
+def video(spec: TrialSpec) -> PixelConfig | None:
+    """How the trial's demonstrations are filmed: as the learner sees (pixels) or as its
+    reward judges (video-reward); None: they are states."""
+    return pixels(spec) or beside(spec)
+
+
+def demo_pool(env_id: str, dataset: str | None, video: PixelConfig | None = None) -> Path:
+    """The demonstration pool file of `env_id`: converted from the Minari `dataset` if given,
+    else recorded from the shipped expert (with its video, given `video`); made on first use,
+    cached after."""
+    if dataset:
+        return minari_io.ensure_pool(dataset, env_id)
+    return demos.ensure_pool(env_id, video)
+
+
+def expert_distance(spec: TrialSpec, visited: list[np.ndarray]) -> float | None:
+    """`state_match.state_distance` of the states a trial's evaluation visited from its expert
+    pool's states; None where the env has no expert (or dataset) to compare with."""
+    try:
+        pool = demo_pool(spec.env_id, spec.dataset)
+    except FileNotFoundError:  # ExpertError: a random policy can run where no expert exists
+        return None
+    expert_states = demos.pool_states(pool, spec.env_id)
+    return state_match.state_distance(np.concatenate(visited), expert_states)
+
+
+def trial_inputs(spec: TrialSpec) -> Any:
+    """What the trial's algorithm is handed as `demos`, according to its `inputs`."""
+    kind = registry.get(spec.algorithm).inputs
+    if kind == "none":
+        return None
+    if kind == "expert":
+        return None if spec.dataset else experts.load_expert(spec.env_id)
+    filmed = video(spec)
+    pool = demo_pool(spec.env_id, spec.dataset, filmed)
+    load = demos.load_demos if kind == "states" else demos.load_action_demos
+    return load(pool, spec.env_id, spec.n_demos, spec.seed, filmed)
+
+
+def make_env(spec: TrialSpec, seed: int, training: bool = True) -> gym.Env:
+    """An env of the trial, observed as its algorithm observes it. Where it imitates video
+    while acting on states, training envs film themselves beside (`VideoBeside`); evaluation
+    envs need not."""
+    filmed = beside(spec) if training else None
+    if filmed is not None:
+        return VideoBeside(envs.make(spec.env_id, seed, filmed))
+    return envs.make(spec.env_id, seed, pixels(spec))
+
+
+def make_task(spec: TrialSpec, tally: list[int], device: str = "cpu") -> registry.Task:
+    """The trial's Task: its envs count every step into `tally[0]` and stop past the budget."""
+    seen = pixels(spec)
+    obs_dim, act_dim, low, high = envs.spaces(spec.env_id, seen)
+    return registry.Task(
+        spec.env_id,
+        obs_dim,
+        act_dim,
+        low,
+        high,
+        make_env=lambda s: StepCounter(make_env(spec, s), tally, spec.budget),
+        device=device,
+        pixels=seen,
+        video=beside(spec),
+    )
+
+
+def run_trial(
+    spec: TrialSpec, inputs: Any, device: str = "cpu", tensorboard: str | Path | None = None
+) -> TrialResult:
+    """Train `spec.algorithm` and evaluate it; never raises (a failure is a failed record).
+    With `tensorboard`, every scalar it logs is also written there as it comes (`event_dir`)."""
+    torch.set_num_threads(1)  # joblib workers share the cores: one thread each
+    start = time.time()
+    tally = [0]
+    eval_seed = EVAL_SEED + 1000 * spec.seed
+    eval_envs: list[gym.Env] = []
+    logger = TrialLogger(eval_envs, eval_seed, every=max(1, spec.budget // CURVE_POINTS))
+    given = reference = distance = saved = None
+    status, returns = "failed", []
+    try:
+        logger.events = open_events(tensorboard, spec)
+        torch.manual_seed(spec.seed)
+        algo = registry.get(spec.algorithm)
+        given = algo.inputs
+        if spec.dataset and algo.inputs == "expert":
+            # The demonstrator of an imported dataset cannot be run: its returns stand in.
+            returns, reference = minari_io.expert_reference(minari_io.open_dataset(spec.dataset))
+        else:
+            eval_envs += [make_env(spec, eval_seed + i) for i in range(min(10, spec.eval_episodes))]
+            task = make_task(spec, tally, device)
+            config = algo.make_config(spec.hyperparams)
+            policy = algo.train(task, inputs, spec.budget, spec.seed, logger, config)
+            visited: list[np.ndarray] | None = None if pixels(spec) else []
+            returns = evaluate(policy, eval_envs, spec.eval_episodes, eval_seed, visited)
+            saved = None if algo.name == "expert" else policies.to_bytes(policy)
+            distance = expert_distance(spec, visited) if visited else None
+        if not np.all(np.isfinite(returns)):
+            raise FloatingPointError("evaluation returned a non-finite return")
+        status, tb = "ok", None
+    except Exception:
+        returns, status, tb = [], "failed", traceback.format_exc()
+    finally:
+        for env in eval_envs:
+            env.close()
+        if logger.events is not None:
+            if status == "ok":
+                logger.events.add_scalar("eval/final_return", float(np.mean(returns)), tally[0])
+            logger.events.close()
+    return TrialResult(
+        spec=spec,
+        status=status,
+        returns=[float(r) for r in returns],
+        curve=logger.curve,
+        env_steps=tally[0],
+        wall_time=round(time.time() - start, 3),
+        versions=versions(),
+        traceback=tb,
+        logs=logger.logs,
+        inputs=given,
+        reference=reference,
+        state_distance=distance,
+        policy=saved if status == "ok" else None,
+    )
