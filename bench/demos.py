@@ -211,8 +211,3 @@ def pool_states(path: Path, env_id: str) -> np.ndarray:
     """(N, O) every observation of every episode of a pool, back to back."""
     return _open(path, env_id)["obs"]
 
-
-def pool_returns(path: Path, env_id: str) -> np.ndarray:
-    """Per-episode expert returns of a pool (for reports)."""
-    data = _open(path, env_id)
-    return np.array([r.sum() for r in split_episodes(data["rewards"], data["obs_lengths"] - 1)])

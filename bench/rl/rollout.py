@@ -41,7 +41,6 @@ class Batch:
     """(T, E) int64: index of the step within its episode (0 at reset)."""
     episode_returns: list[float]
     """Env returns of the episodes that finished during this batch."""
-    episode_lengths: list[int]
     frames: np.ndarray | None = None
     """(T, E, F) uint8 flat frames of obs, where the envs film themselves beside their state
     observations (`bench.pixels.VideoBeside`: a reward judged on video); else None."""
@@ -118,7 +117,6 @@ class VecCollector:
         truncated = np.zeros((T, E), bool)
         timesteps = np.empty((T, E), np.int64)
         ep_returns: list[float] = []
-        ep_lengths: list[int] = []
         filmed = self.frames is not None
         if filmed:
             frames = np.empty((T, *self.frames.shape), np.uint8)
@@ -142,7 +140,6 @@ class VecCollector:
                 if term or trunc:
                     terminated[t, i], truncated[t, i] = term, trunc and not term
                     ep_returns.append(float(self.ret[i]))
-                    ep_lengths.append(int(self.t[i]))
                     o, info = env.reset()
                     self.ret[i], self.t[i] = 0.0, 0
                 self.obs[i] = o
@@ -157,7 +154,6 @@ class VecCollector:
             truncated,
             timesteps,
             ep_returns,
-            ep_lengths,
             frames if filmed else None,
             next_frames if filmed else None,
         )
