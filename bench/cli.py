@@ -219,7 +219,7 @@ def _estimate(specs: list, results: Path, jobs: int) -> int:
 
 
 def _plot(args: argparse.Namespace) -> int:
-    from bench import normalize, plot, store
+    from bench import labels, normalize, plot, store
 
     dirs = store.suite_dirs(args.results_dir)
     for d in dirs:
@@ -232,7 +232,7 @@ def _plot(args: argparse.Namespace) -> int:
             kinds = ", ".join(f"{n} {s}" for s, n in left_out["status"].value_counts().items())
             print(f"{d}: {len(left_out)} records left out ({kinds})", file=sys.stderr)
         written = []
-        if plot.algorithm_order(df["algorithm"].unique()):
+        if labels.algorithm_order(df["algorithm"].unique()):
             out = Path(args.out) if args.out and len(dirs) == 1 else d / "figure2.png"
             written = plot.figure2(df, out)
         else:
@@ -254,12 +254,12 @@ def _report(args: argparse.Namespace) -> int:
 
 
 def _compare(args: argparse.Namespace) -> int:
-    from bench import plot, report, stats
+    from bench import labels, report, stats
 
     run, ref = (_one_suite(args.run), _one_suite(args.reference))
     run_df, ref_df = _normalized_alike(run, ref)
     comparison = stats.compare(run_df, ref_df, reps=args.reps)
-    starred = plot.action_users(run_df) | plot.action_users(ref_df)
+    starred = labels.action_users(run_df) | labels.action_users(ref_df)
     print(report.compare_table(comparison, str(args.run), str(args.reference), starred))
     return 0
 

@@ -210,4 +210,3 @@ def load_action_demos(
 def pool_states(path: Path, env_id: str) -> np.ndarray:
     """(N, O) every observation of every episode of a pool, back to back."""
     return _open(path, env_id)["obs"]
-

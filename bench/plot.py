@@ -20,23 +20,19 @@ from matplotlib.lines import Line2D
 from matplotlib.patches import Patch
 from matplotlib.ticker import EngFormatter
 
-from bench.envs import PAPER_ENVS
+from bench.labels import (
+    ACTIONS_FOOTNOTE,
+    PAPER_ALGORITHMS,
+    action_users,
+    algorithm_label,
+    algorithm_order,
+    demos_label,
+    env_label,
+    env_order,
+)
 from bench.normalize import CEILINGS, CONTROLS, FLOORS, REFERENCES, demo_free, method
 
 """Normalized to 0 and 1 by construction: drawn as lines, not bars."""
-PAPER_ALGORITHMS = ("gaifo", "gail", "bco", "tcn", "survival")
-"""Fixed order and colors; other algorithms follow alphabetically."""
-LABELS = {
-    "gaifo": "GAIfO",
-    "gail": "GAIL",
-    "bco": "BCO",
-    "tcn": "TCN",
-    "survival": "Survival",
-    "oracle": "Oracle",
-    "random": "Random",
-    "expert": "Expert",
-}
-ACTIONS_FOOTNOTE = "* has access to expert actions"
 PALETTE = "colorblind"
 DPI = 200
 REFERENCE_LINES = {"random": ("0.45", "Random (0)"), "expert": ("0.1", "Expert (1)")}
@@ -57,24 +53,6 @@ algorithm, so a labelled variant of one is drawn alike)."""
 # ---------------------------------------------------------------- order, names, colors
 
 
-def env_order(env_ids: Iterable[str]) -> list[str]:
-    """The paper's env order for the envs it has, then the others alphabetically."""
-    env_ids = set(env_ids)
-    return [e for e in PAPER_ENVS if e in env_ids] + sorted(env_ids - set(PAPER_ENVS))
-
-
-def env_label(env_id: str) -> str:
-    """'HopperBulletEnv-v0' -> 'Hopper'; other ids lose only their version."""
-    name = env_id.rsplit("-v", 1)[0]
-    return name.removesuffix("BulletEnv") or env_id
-
-
-def algorithm_order(names: Iterable[str]) -> list[str]:
-    """Learners in the paper's order, then others alphabetically; references left out."""
-    names = set(names) - set(REFERENCES)
-    return [a for a in PAPER_ALGORITHMS if a in names] + sorted(names - set(PAPER_ALGORITHMS))
-
-
 def algorithm_colors(names: Iterable[str]) -> dict[str, tuple[float, float, float]]:
     """A color per learner; the paper's algorithms keep theirs whatever else is plotted."""
     order = algorithm_order(names)
@@ -83,18 +61,6 @@ def algorithm_colors(names: Iterable[str]) -> dict[str, tuple[float, float, floa
     slots |= {a: len(PAPER_ALGORITHMS) + i for i, a in enumerate(others)}
     palette = sns.color_palette(PALETTE, max(slots.values(), default=0) + 1)
     return {a: palette[slots[a]] for a in order}
-
-
-def action_users(df: pd.DataFrame) -> frozenset[str]:
-    """Algorithms whose records say they were given expert actions (column `inputs`)."""
-    if "inputs" not in df:
-        return frozenset()
-    return frozenset(df.loc[df["inputs"] == "actions", "algorithm"])
-
-
-def algorithm_label(name: str, action_users: Collection[str] = ()) -> str:
-    """Display name; a * marks an algorithm that was given expert actions."""
-    return LABELS.get(name, name) + ("*" if name in action_users else "")
 
 
 def repeat_demo_free(df: pd.DataFrame) -> pd.DataFrame:
@@ -371,11 +337,6 @@ def _legend_columns(entries: int, panels_across: int) -> int:
     per_row = min(8, 3 * panels_across)
     rows = math.ceil(entries / per_row)
     return math.ceil(entries / rows)
-
-
-def demos_label(n: int, word: str = "demo") -> str:
-    """'no demos', '1 demo', '5 demos'; word="demonstration" for the long form."""
-    return f"no {word}s" if n == 0 else f"{n} {word}" + ("s" if n != 1 else "")
 
 
 def _mean_std(mean: float, std: float) -> str:

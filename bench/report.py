@@ -16,26 +16,27 @@ Nothing here trains or evaluates: it reads records and writes files.
 from __future__ import annotations
 
 import math
-import warnings
 from collections.abc import Collection, Sequence
 from pathlib import Path
 from typing import NamedTuple
 
-import numpy as np
 import pandas as pd
 
-from bench import plot, stats, store
+from bench import comparisons, labels, plot, stats, store
+from bench.comparisons import (
+    PER_ENV_COLUMNS,
+    POOLED,
+    STATE_MATCH_COLUMNS,
+    TARGET,
+    demo_counts,
+)
 from bench.normalize import (
-    CEILINGS,
     EXPERT,
     ORACLE,
     RANDOM,
     REFERENCES,
-    SURVIVAL,
     demo_free,
-    method,
     normalize,
-    optimizer_of,
     reference_returns,
 )
 
@@ -43,37 +44,7 @@ REPORT = "report.md"
 AGGREGATES_CSV = "aggregates.csv"
 IMPROVEMENT_CSV = "improvement.csv"
 STATE_MATCH_CSV = "state_match.csv"
-STATE_MATCH_COLUMNS = [
-    "n_demos",
-    "algorithm",
-    "runs",
-    "iqm",
-    "lo",
-    "hi",
-    "p_closer",
-    "p_lo",
-    "p_hi",
-]
-TARGET = "gaifo"
-"""The algorithm whose probability of improvement over the others is reported."""
-CONTROL = SURVIVAL
-"""The no-demonstration control every other learner is also compared with."""
 PER_ENV_CSV = "per_env.csv"
-PER_ENV_COLUMNS = [
-    "n_demos",
-    "env_id",
-    "statistic",
-    "algorithm",
-    "other",
-    "seeds",
-    "estimate",
-    "lo",
-    "hi",
-]
-POOLED = "pooled"
-"""env_id of per_env.csv's rows over every env (aggregates.csv's and improvement.csv's numbers)."""
-TAUS = 81
-"""Score thresholds in a performance profile."""
 AGGREGATE_COLUMNS = ["n_demos", "algorithm", "seeds", "envs", "metric", "estimate", "lo", "hi"]
 IMPROVEMENT_COLUMNS = ["n_demos", "algorithm", "other", "estimate", "lo", "hi"]
 MAX_LISTED = 20
@@ -127,10 +98,10 @@ def write_report(results_dir: Path, out_dir: Path | None = None, reps: int = 200
     if trials.empty:
         raise FileNotFoundError(f"{store.trials_dir(results_dir)}: no readable trial record")
     df = normalize(trials)
-    starred = plot.action_users(trials)
+    starred = labels.action_users(trials)
     out_dir.mkdir(parents=True, exist_ok=True)
 
-    learners = plot.algorithm_order(df["algorithm"].unique())
+    learners = labels.algorithm_order(df["algorithm"].unique())
     if learners:
         plot.figure2(df, out_dir / "figure2")
         figure_section = (
@@ -138,7 +109,9 @@ def write_report(results_dir: Path, out_dir: Path | None = None, reps: int = 200
             "![Normalized return per env against number of demonstrations](figure2.png)\n\n"
             "Mean ± standard deviation over seeds, as in the figure.\n\n"
             # A line that starts with "* " would be a list item in markdown.
-            + plot.summary_table(df).replace(plot.ACTIONS_FOOTNOTE, "\\" + plot.ACTIONS_FOOTNOTE)
+            + plot.summary_table(df).replace(
+                labels.ACTIONS_FOOTNOTE, "\\" + labels.ACTIONS_FOOTNOTE
+            )
         )
     else:
         figure_section = "No learning algorithm was run: only the random and expert references."
@@ -184,7 +157,7 @@ def tables(
     aggregates: pd.DataFrame, improvement: pd.DataFrame, action_users: Collection[str] = ()
 ) -> str:
     """The aggregate and probability-of-improvement tables of a report, as markdown;
-    `action_users` (plot.action_users of the records) are marked with a *."""
+    `action_users` (labels.action_users of the records) are marked with a *."""
     parts = []
     for n in sorted(set(aggregates["n_demos"]) | set(improvement["n_demos"])):
         parts.append(f"### {_demos_title(n)}")
@@ -198,66 +171,6 @@ def tables(
 
 
 # ---------------------------------------------------------------- statistics
-
-
-def demo_counts(df: pd.DataFrame) -> list[int]:
-    """The demonstration counts the learners ran with; [0] when every learner is demonstration-free."""
-    learners = df[~df["algorithm"].isin(REFERENCES)]
-    counts = sorted(int(n) for n in learners["n_demos"].unique() if n > 0)
-    return counts or ([0] if len(learners) else [])
-
-
-def competitors(df: pd.DataFrame, n_demos: int) -> list[str]:
-    """Learners with trials at `n_demos`, plus the demonstration-free ones (controls), in plot order."""
-    learners = df[~df["algorithm"].isin(REFERENCES)]
-    here = learners["n_demos"] == n_demos
-    return plot.algorithm_order(set(learners.loc[here | demo_free(learners), "algorithm"]))
-
-
-def improvement_pairs(
-    names: Collection[str], ceilings: Collection[str] = (ORACLE,)
-) -> list[tuple[str, str]]:
-    """The (a, b) whose P(a > b) a report gives: GAIfO against every other learner, then every
-    other learner against the survival control (did it learn from the demonstrations at all?).
-    The oracle's `ceilings` are references, read as fractions (`oracle_fractions`), not rivals."""
-    ordered = _in_order(pd.Series([n for n in names if n not in ceilings], dtype=object))
-    pairs = [(TARGET, other) for other in ordered if other != TARGET] if TARGET in names else []
-    if CONTROL in names:
-        pairs += [(a, CONTROL) for a in ordered if a not in (TARGET, CONTROL)]
-    return pairs
-
-
-def ceiling_of(learner: str, methods: dict[str, str]) -> str | None:
-    """The oracle variant `learner` is read against, among its optimizer's oracles
-    (`oracle` for TRPO learners, `oracle-sac` for SAC's): the one whose label shares the
-    learner's variant suffix (gaifo-b1024 -> oracle-b1024), else the plain one, else None.
-    `methods`: shown name -> registered algorithm, for every name present."""
-    registered = methods.get(learner, learner)
-    family = optimizer_of(registered)
-    oracles = {
-        name: m for name, m in methods.items() if m in CEILINGS and optimizer_of(m) == family
-    }
-    suffix = learner.removeprefix(registered)
-    for name, m in oracles.items():
-        if suffix and name == f"{m}{suffix}":
-            return name
-    plain = [name for name, m in oracles.items() if name == m]
-    return plain[0] if plain else None
-
-
-def oracle_fractions(
-    scores: dict[str, np.ndarray], methods: dict[str, str], reps: int = 2000
-) -> pd.DataFrame:
-    """Each learner's IQM as a fraction of its oracle's (`ceiling_of`), with a 95% bootstrap CI:
-    algorithm, other (the oracle), estimate, lo, hi. Empty where no oracle ran."""
-    rows = []
-    for i, name in enumerate(scores):
-        ceiling = ceiling_of(name, methods)
-        if methods.get(name) in CEILINGS or ceiling is None or ceiling not in scores:
-            continue
-        ratio = stats.iqm_ratio(scores[name], scores[ceiling], reps=reps, seed=i)
-        rows.append({"algorithm": name, "other": ceiling, **ratio})
-    return pd.DataFrame(rows, columns=["algorithm", "other", "estimate", "lo", "hi"])
 
 
 def load_iqm_curves(results_dir: Path, trials: pd.DataFrame, reps: int = 2000) -> pd.DataFrame:
@@ -281,11 +194,11 @@ def aggregate_table(aggregates: pd.DataFrame, action_users: Collection[str] = ()
     ]
     lines = [_row(header), "|" + "---|" * len(header)]
     cells = aggregates.set_index(["algorithm", "metric"])
-    for a in _in_order(aggregates["algorithm"]):
+    for a in labels.in_order(aggregates["algorithm"]):
         first = cells.loc[(a, metrics[0])]
         runs = f"{int(first['seeds'])} × {int(first['envs'])}"
         values = [_interval(*cells.loc[(a, m), ["estimate", "lo", "hi"]]) for m in metrics]
-        lines.append(_row([plot.algorithm_label(a, action_users), runs, *values]))
+        lines.append(_row([labels.algorithm_label(a, action_users), runs, *values]))
     return "\n".join(lines) + "\n"
 
 
@@ -302,7 +215,7 @@ def improvement_table(improvement: pd.DataFrame, action_users: Collection[str] =
 
 
 def _pair_label(a: str, b: str, action_users: Collection[str]) -> str:
-    return f"{plot.algorithm_label(a, action_users)} > {plot.algorithm_label(b, action_users)}"
+    return f"{labels.algorithm_label(a, action_users)} > {labels.algorithm_label(b, action_users)}"
 
 
 def compare_table(
@@ -313,7 +226,10 @@ def compare_table(
     header = ["env", "algorithm", "demos", f"run ({run})", f"reference ({reference})"]
     header += ["run - ref [95% CI]", "verdict"]
     lines = [_row(header), "|" + "---|" * len(header)]
-    envs, algorithms = plot.env_order(comparison["env_id"]), _in_order(comparison["algorithm"])
+    envs, algorithms = (
+        labels.env_order(comparison["env_id"]),
+        labels.in_order(comparison["algorithm"]),
+    )
     ordered = comparison.sort_values(
         ["env_id", "algorithm", "n_demos"],
         key=lambda col: (
@@ -326,8 +242,8 @@ def compare_table(
         lines.append(
             _row(
                 [
-                    plot.env_label(r["env_id"]),
-                    plot.algorithm_label(r["algorithm"], action_users),
+                    labels.env_label(r["env_id"]),
+                    labels.algorithm_label(r["algorithm"], action_users),
                     r["n_demos"],
                     _interval(r["run_iqm"], r["run_lo"], r["run_hi"]) + f" ({r['run_seeds']})",
                     _interval(r["ref_iqm"], r["ref_lo"], r["ref_hi"]) + f" ({r['ref_seeds']})",
@@ -355,20 +271,20 @@ def _seen(df: pd.DataFrame, env_id: str) -> str:
 
 def _header(df: pd.DataFrame, results_dir: Path) -> str:
     suites = ", ".join(sorted(map(str, df["suite"].unique())))
-    envs = plot.env_order(df["env_id"].unique())
-    learners = plot.algorithm_order(df["algorithm"].unique())
+    envs = labels.env_order(df["env_id"].unique())
+    learners = labels.algorithm_order(df["algorithm"].unique())
     references = [a for a in (RANDOM, EXPERT) if a in set(df["algorithm"])]
     ok = df[df["status"] == "ok"]
     per_cell = ok.groupby(["env_id", "algorithm", "n_demos"]).size()
     seeds = _range_text(per_cell) if len(per_cell) else "0"
     failed = df[df["status"] != "ok"]
     counts = [int(n) for n in sorted(df.loc[df["n_demos"] > 0, "n_demos"].unique())]
-    starred = plot.action_users(df)
-    label = lambda a: plot.algorithm_label(a, starred)  # noqa: E731
+    starred = labels.action_users(df)
+    label = lambda a: labels.algorithm_label(a, starred)  # noqa: E731
     rows = [
         ("suite", suites),
         ("results", f"`{results_dir}`"),
-        ("envs", ", ".join(f"{plot.env_label(e)} (`{e}`{_seen(df, e)})" for e in envs)),
+        ("envs", ", ".join(f"{labels.env_label(e)} (`{e}`{_seen(df, e)})" for e in envs)),
         ("learners", ", ".join(map(label, learners)) or "none"),
         ("references", ", ".join(map(label, references)) or "none"),
         ("demonstrations", ", ".join(map(str, counts)) or "none"),
@@ -382,8 +298,8 @@ def _header(df: pd.DataFrame, results_dir: Path) -> str:
     if len(failed):
         lines += ["", "Failed trials, left out of every statistic:", ""]
         lines += [
-            f"- {plot.env_label(r.env_id)}, {label(r.algorithm)}, "
-            f"{plot.demos_label(r.n_demos, 'demonstration')}, seed {r.seed}"
+            f"- {labels.env_label(r.env_id)}, {label(r.algorithm)}, "
+            f"{labels.demos_label(r.n_demos, 'demonstration')}, seed {r.seed}"
             for r in failed.head(MAX_LISTED).itertuples()
         ]
         if len(failed) > MAX_LISTED:
@@ -445,16 +361,16 @@ def _at_a_glance(
     if aggregates.empty:
         return ""
     counts = sorted(aggregates["n_demos"].unique())
-    columns = [plot.demos_label(n) for n in counts]
+    columns = [labels.demos_label(n) for n in counts]
     rule = "|" + "---|" * (1 + len(counts))
     lines = ["## At a glance", "", _row(["IQM [95% CI]", *columns]), rule]
     iqm = aggregates[aggregates["metric"] == "iqm"].set_index(["algorithm", "n_demos"])
-    for a in _in_order(aggregates["algorithm"]):
+    for a in labels.in_order(aggregates["algorithm"]):
         cells = [
             _interval(*iqm.loc[(a, n), ["estimate", "lo", "hi"]]) if (a, n) in iqm.index else ""
             for n in counts
         ]
-        lines.append(_row([plot.algorithm_label(a, action_users), *cells]))
+        lines.append(_row([labels.algorithm_label(a, action_users), *cells]))
     if len(improvement):
         pi = improvement.set_index(["algorithm", "other", "n_demos"])
         lines += ["", _row(["P(improvement) [95% CI]", *columns]), rule]
@@ -483,7 +399,7 @@ def _references(df: pd.DataFrame) -> str:
         "| env | random | expert |",
         "|---|---|---|",
     ]
-    for env_id in plot.env_order(df["env_id"].unique()):
+    for env_id in labels.env_order(df["env_id"].unique()):
         cells = []
         for a in (RANDOM, EXPERT):
             if (env_id, a) not in summary.index:
@@ -493,7 +409,7 @@ def _references(df: pd.DataFrame) -> str:
             seeds = f"{int(r['size'])} seed" + ("s" if r["size"] != 1 else "")
             spread = "" if pd.isna(r["std"]) else f" ± {r['std']:.1f}"
             cells.append(f"{r['mean']:.1f}{spread} ({seeds})")
-        lines.append(_row([plot.env_label(env_id), *cells]))
+        lines.append(_row([labels.env_label(env_id), *cells]))
     return "\n".join(lines)
 
 
@@ -510,17 +426,17 @@ def _costs(df: pd.DataFrame) -> str:
         "| env | algorithm | budget (env steps) | trials | wall time per trial | core-hours |",
         "|---|---|---:|---:|---:|---:|",
     ]
-    starred = plot.action_users(df)
-    for env_id in plot.env_order(ok["env_id"].unique()):
+    starred = labels.action_users(df)
+    for env_id in labels.env_order(ok["env_id"].unique()):
         rows = ok[ok["env_id"] == env_id]
-        for algorithm in _in_order(rows["algorithm"]):
+        for algorithm in labels.in_order(rows["algorithm"]):
             cell = rows[rows["algorithm"] == algorithm]
             budget = ", ".join(f"{b:,}" for b in sorted(cell["budget"].unique()))
             lines.append(
                 _row(
                     [
-                        plot.env_label(env_id),
-                        plot.algorithm_label(algorithm, starred),
+                        labels.env_label(env_id),
+                        labels.algorithm_label(algorithm, starred),
                         budget,
                         len(cell),
                         _duration(cell["wall_time"].mean()),
@@ -537,27 +453,20 @@ def _demo_section(
     """Markdown for one demo count, and its aggregate and improvement rows."""
     title = _demos_title(n)
     parts = [f"## {title}"]
-    names = competitors(df, n)
-    starred = plot.action_users(df)
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always")
-        try:
-            scores = stats.score_dict(df, n, algorithms=names)
-        except ValueError as e:
-            parts.append(f"No aggregate statistics: {e}.")
-            scores = {}
-    notes = [str(w.message) for w in caught if issubclass(w.category, UserWarning)]
-    if notes:
-        parts.append("Left out of the statistics:\n" + "\n".join(f"- {note}" for note in notes))
-    aggregate = pd.DataFrame()
-    improvement = pd.DataFrame()
-    if scores:
-        aggregate = stats.aggregate_scores(scores, reps=reps)
-        aggregate = aggregate.assign(
-            seeds=[scores[a].shape[0] for a in aggregate["algorithm"]],
-            envs=[scores[a].shape[1] for a in aggregate["algorithm"]],
+    names = comparisons.competitors(df, n)
+    starred = labels.action_users(df)
+    counted = comparisons.count_statistics(df, n, reps)
+    if counted.failure is not None:
+        parts.append(f"No aggregate statistics: {counted.failure}.")
+    if counted.left_out:
+        parts.append(
+            "Left out of the statistics:\n" + "\n".join(f"- {note}" for note in counted.left_out)
         )
-        envs = next(iter(scores.values())).shape[1]  # the same for all: score_dict's contract
+    aggregate, improvement = counted.aggregate, counted.improvement
+    if counted.scores:
+        envs = next(iter(counted.scores.values())).shape[
+            1
+        ]  # the same for all: score_dict's contract
         pooled = f"Runs of the {envs} envs pooled" if envs > 1 else "Runs of the one env"
         parts += [
             "### Aggregate normalized score",
@@ -565,27 +474,20 @@ def _demo_section(
             aggregate_table(aggregate, starred),
         ]
         parts.append("### Probability of improvement")
-        if TARGET not in scores:
+        if TARGET not in counted.scores:
             parts.append(
-                f"{plot.algorithm_label(TARGET, starred)} has no scores with {title.lower()}."
+                f"{labels.algorithm_label(TARGET, starred)} has no scores with {title.lower()}."
             )
-        methods = _methods(df)
-        pairs = improvement_pairs(scores, [a for a in scores if methods.get(a) in CEILINGS])
-        if pairs:
-            improvement = stats.improvement_of_pairs(scores, pairs, reps=reps)
+        if len(improvement):
             parts.append(improvement_table(improvement, starred))
         else:
             parts.append(
                 "Nothing to compare: no second learner to set against GAIfO or the control."
             )
-
-        everything = np.concatenate([s.ravel() for s in scores.values()])
-        taus = np.linspace(min(0.0, everything.min()), max(1.0, everything.max()), TAUS)
-        profile = stats.performance_profile(scores, taus, reps=reps)
         name = f"profile_{n}demos"
         plot.save(
             plot.draw_performance_profile(
-                profile, f"Performance profile, {title.lower()}", starred
+                counted.profile, f"Performance profile, {title.lower()}", starred
             ),
             out_dir / name,
         )
@@ -620,52 +522,12 @@ def _per_env_section(
     Each env keeps every seed it has, where pooling keeps only the seeds every env has, so a
     domain still running is read from all of its finished seeds.
     """
-    rows = []
-    envs = []
-    for env_id in plot.env_order(df["env_id"].unique()):
-        here = df[df["env_id"] == env_id]
-        names = competitors(here, n)
-        if not names:
-            continue
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")  # seeds left out are said in the pooled sections
-            scores = stats.score_dict(here, n, algorithms=names)
-        envs.append(env_id)
-        iqm = stats.aggregate_scores(scores, reps=reps)
-        for r in iqm[iqm["metric"] == "iqm"].itertuples():
-            rows.append(
-                (
-                    n,
-                    env_id,
-                    "iqm",
-                    r.algorithm,
-                    "",
-                    len(scores[r.algorithm]),
-                    r.estimate,
-                    r.lo,
-                    r.hi,
-                )
-            )
-        methods = _methods(here)
-        pairs = improvement_pairs(scores, [a for a in scores if methods.get(a) in CEILINGS])
-        for r in stats.improvement_of_pairs(scores, pairs, reps=reps).itertuples():
-            seeds = min(len(scores[r.algorithm]), len(scores[r.other]))
-            rows.append(
-                (n, env_id, "p_improvement", r.algorithm, r.other, seeds, r.estimate, r.lo, r.hi)
-            )
-        for r in oracle_fractions(scores, methods, reps).itertuples():
-            seeds = len(scores[r.algorithm])
-            rows.append(
-                (n, env_id, "of_oracle", r.algorithm, r.other, seeds, r.estimate, r.lo, r.hi)
-            )
-    if not envs:
+    by_env = comparisons.per_env_statistics(df, n, reps)
+    if by_env.empty:
         return "", pd.DataFrame(columns=PER_ENV_COLUMNS)
-    if len(pooled_aggregate):
-        for r in pooled_aggregate[pooled_aggregate["metric"] == "iqm"].itertuples():
-            rows.append((n, POOLED, "iqm", r.algorithm, "", r.seeds, r.estimate, r.lo, r.hi))
-    for r in pooled_improvement.itertuples():
-        rows.append((n, POOLED, "p_improvement", r.algorithm, r.other, "", r.estimate, r.lo, r.hi))
-    frame = pd.DataFrame(rows, columns=PER_ENV_COLUMNS)
+    envs = list(dict.fromkeys(by_env["env_id"]))
+    pooled = comparisons.pooled_rows(n, pooled_aggregate, pooled_improvement)
+    frame = pd.concat([by_env, pooled], ignore_index=True) if len(pooled) else by_env
 
     columns = [*envs, POOLED] if len(envs) > 1 else envs
     iqm = frame[frame["statistic"] == "iqm"]
@@ -677,28 +539,26 @@ def _per_env_section(
         _env_table(
             iqm,
             "IQM [95% CI] (seeds)",
-            {plot.algorithm_label(a, starred): (a, "") for a in _in_order(iqm["algorithm"])},
+            {
+                labels.algorithm_label(a, starred): (a, "")
+                for a in labels.in_order(iqm["algorithm"])
+            },
             columns,
         ),
     ]
     if len(improved):
         pairs = dict.fromkeys(zip(improved["algorithm"], improved["other"], strict=True))
-        labels = {_pair_label(a, b, starred): (a, b) for a, b in pairs}
-        lines.append(_env_table(improved, "P(improvement) [95% CI]", labels, columns))
+        keys = {_pair_label(a, b, starred): (a, b) for a, b in pairs}
+        lines.append(_env_table(improved, "P(improvement) [95% CI]", keys, columns))
     fractions = frame[frame["statistic"] == "of_oracle"]
     if len(fractions):
         pairs = dict.fromkeys(zip(fractions["algorithm"], fractions["other"], strict=True))
-        labels = {
-            f"{plot.algorithm_label(a, starred)} / {plot.algorithm_label(b)}": (a, b)
+        keys = {
+            f"{labels.algorithm_label(a, starred)} / {labels.algorithm_label(b)}": (a, b)
             for a, b in pairs
         }
-        lines.append(_env_table(fractions, "IQM / oracle's IQM [95% CI]", labels, columns))
+        lines.append(_env_table(fractions, "IQM / oracle's IQM [95% CI]", keys, columns))
     return "\n\n".join(lines), frame
-
-
-def _methods(df: pd.DataFrame) -> dict[str, str]:
-    """Shown name -> registered algorithm (the name itself in frames without `method`)."""
-    return dict(zip(df["algorithm"], method(df), strict=True))
 
 
 def _env_table(
@@ -707,7 +567,7 @@ def _env_table(
     """Markdown: a row per label of `keys` (its algorithm and other), a column per env id of
     `columns`, each cell `estimate [lo, hi]` (and the seed count of an env's IQM)."""
     cells = rows.set_index(["algorithm", "other", "env_id"])
-    header = [title, *(e if e == POOLED else plot.env_label(e) for e in columns)]
+    header = [title, *(e if e == POOLED else labels.env_label(e) for e in columns)]
     lines = [_row(header), "|" + "---|" * len(header)]
     for label, (a, b) in keys.items():
         values = []
@@ -727,47 +587,24 @@ def _state_match_section(
 ) -> tuple[str, pd.DataFrame]:
     """Markdown on how far each learner's states lie from the expert's at `n` demos, and its
     rows; nothing where the records hold no distance (pixels, or records from before)."""
-    measured = df.dropna(subset=["state_distance"])
-    names = [
-        *competitors(measured, n),
-        *(a for a in (EXPERT, RANDOM) if a in set(measured["algorithm"])),
-    ]
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")  # seeds and envs left out are said in the return sections
-        try:
-            distances = stats.score_dict(measured, n, algorithms=names, column="state_distance")
-        except ValueError:
-            return "", pd.DataFrame()
-    aggregate = stats.aggregate_scores(distances, reps=reps)
-    iqm = aggregate[aggregate["metric"] == "iqm"].set_index("algorithm")
-    closer = pd.DataFrame()
-    if TARGET in distances and len(distances) > 1:  # closer is better: compare negated distances
-        negated = {a: -d for a, d in distances.items()}
-        closer = stats.probability_of_improvement(negated, TARGET, reps=reps).set_index("other")
-    target = plot.algorithm_label(TARGET, starred)
+    rows = comparisons.state_match_statistics(df, n, reps)
+    if rows.empty:
+        return "", pd.DataFrame()
+    target = labels.algorithm_label(TARGET, starred)
     header = ["algorithm", "runs", "IQM distance [95% CI]", f"P({target} closer) [95% CI]"]
     lines = [_row(header), "|---|---|---|---|"]
-    rows = []
-    for a in _in_order(pd.Series(list(distances))):
-        d = iqm.loc[a]
-        row = {"n_demos": n, "algorithm": a, "runs": "{} × {}".format(*distances[a].shape)}
-        row |= {"iqm": d["estimate"], "lo": d["lo"], "hi": d["hi"]}
-        p_closer = ""
-        if a in closer.index:
-            p = closer.loc[a]
-            row |= {"p_closer": p["estimate"], "p_lo": p["lo"], "p_hi": p["hi"]}
-            p_closer = _interval(p["estimate"], p["lo"], p["hi"])
+    for r in rows.itertuples():
+        p_closer = "" if pd.isna(r.p_closer) else _interval(r.p_closer, r.p_lo, r.p_hi)
         lines.append(
             _row(
                 [
-                    plot.algorithm_label(a, starred),
-                    row["runs"],
-                    _interval(row["iqm"], row["lo"], row["hi"]),
+                    labels.algorithm_label(r.algorithm, starred),
+                    r.runs,
+                    _interval(r.iqm, r.lo, r.hi),
                     p_closer,
                 ]
             )
         )
-        rows.append(row)
     text = (
         f"## Distance to the expert's states, {_demos_title(n).lower()}\n\n"
         "How far the states a policy visits in its evaluation episodes lie from the expert's "
@@ -777,7 +614,7 @@ def _state_match_section(
         f"expert while standing elsewhere. P({target} closer) is the probability that a "
         f"{target} run is closer to the expert than a run of the other.\n\n" + "\n".join(lines)
     )
-    return text, pd.DataFrame(rows, columns=STATE_MATCH_COLUMNS)
+    return text, rows
 
 
 def _curves_section(
@@ -798,7 +635,7 @@ def _curves_section(
     if missing:
         text = (
             "No learning curve recorded for "
-            + ", ".join(plot.algorithm_label(a, action_users) for a in missing)
+            + ", ".join(labels.algorithm_label(a, action_users) for a in missing)
             + ".\n\n"
         )
     name = f"curves_{n}demos"
@@ -811,12 +648,6 @@ def _curves_section(
 
 
 # ---------------------------------------------------------------- helpers
-
-
-def _in_order(names: pd.Series) -> list[str]:
-    names = list(dict.fromkeys(names))
-    ordered = plot.algorithm_order(names)
-    return ordered + [a for a in names if a not in ordered]
 
 
 def _concat(frames: list[pd.DataFrame], columns: list[str]) -> pd.DataFrame:
@@ -835,7 +666,7 @@ def _row(cells: Sequence[object]) -> str:
 
 
 def _demos_title(n: int) -> str:
-    return plot.demos_label(n, "demonstration").capitalize()
+    return labels.demos_label(n, "demonstration").capitalize()
 
 
 def _range_text(values: pd.Series) -> str:

@@ -65,6 +65,7 @@ def score_dict(
     n_demos: int,
     algorithms: Sequence[str] | None = None,
     column: str = "normalized",
+    left_out: list[str] | None = None,
 ) -> dict[str, np.ndarray]:
     """{algorithm: (seeds x envs) array of `column`} for the trials with `n_demos` demos.
 
@@ -73,8 +74,16 @@ def score_dict(
     `algorithms` (or when n_demos=0). Every algorithm gets the same envs, in sorted order (envs some algorithm
     lacks are dropped), and for each algorithm only the seeds that have a
     score on every env (failed or missing runs drop the seed). Each drop is
-    reported with warnings.warn. Algorithms come in sorted order unless given.
+    said in words: appended to `left_out` when given, else with warnings.warn.
+    Algorithms come in sorted order unless given.
     """
+
+    def drop(message: str) -> None:
+        if left_out is None:
+            warnings.warn(message, stacklevel=3)
+        else:
+            left_out.append(message)
+
     # Algorithms that take no demonstrations (n_demos=0 only) compete at every count;
     # random and expert are left out, being 0 and 1 by construction.
     free = demo_free(df)
@@ -97,10 +106,7 @@ def score_dict(
         raise ValueError(f"no env has scores of every algorithm with n_demos={n_demos}")
     for name, own in envs_of.items():
         if own - set(envs):
-            warnings.warn(
-                f"{name}: dropped env(s) {sorted(own - set(envs))} that other algorithms lack",
-                stacklevel=2,
-            )
+            drop(f"{name}: dropped env(s) {sorted(own - set(envs))} that other algorithms lack")
 
     scores = {}
     for name in names:
@@ -111,10 +117,9 @@ def score_dict(
         complete = table.dropna()
         dropped = sorted(set(table.index) - set(complete.index))
         if dropped:
-            warnings.warn(
+            drop(
                 f"{name}: dropped seed(s) {dropped} without a score on every env"
-                f" (failed or not run); {len(complete)} left",
-                stacklevel=2,
+                f" (failed or not run); {len(complete)} left"
             )
         if len(complete):
             scores[name] = complete.sort_index().to_numpy(dtype=float)

@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 from PIL import Image, ImageDraw
 
-from bench import envs, experts, plot, policies, store
+from bench import envs, experts, labels, policies, store
 from bench.normalize import ORACLE, REFERENCES, normalize
 from bench.pixels import PixelConfig
 from bench.registry import Policy
@@ -57,7 +57,7 @@ def panels(
     trials = store.load(results_dir)
     if trials.empty:
         raise VideoError(f"{results_dir}: no trial records")
-    have = plot.env_order(trials["env_id"].unique())
+    have = labels.env_order(trials["env_id"].unique())
     if env_id is None:
         if len(have) > 1:
             raise VideoError(
@@ -73,7 +73,7 @@ def panels(
     if counts and n_demos not in counts:
         raise VideoError(f"no trials with {n_demos} demos on {env_id} (have: {counts})")
     rows = rows[(rows["n_demos"].isin([0, n_demos])) & (rows["seed"] == seed)]
-    names = plot.algorithm_order(rows["algorithm"].unique())
+    names = labels.algorithm_order(rows["algorithm"].unique())
     if algorithms:
         unknown = sorted(set(algorithms) - set(names))
         if unknown:
@@ -90,7 +90,7 @@ def panels(
                 f"{file}: no policy kept for {name}, seed {seed} (run before policies were kept?)"
             )
         spec = store.read(store.record_path(results_dir, row["trial_id"])).spec
-        label = plot.algorithm_label(name) + (" (true reward)" if row["method"] == ORACLE else "")
+        label = labels.algorithm_label(name) + (" (true reward)" if row["method"] == ORACLE else "")
         result.append(Panel(f"{label} {row['normalized']:.2f}", policies.load(file), spec))
     return result
 

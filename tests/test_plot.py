@@ -8,7 +8,7 @@ import pytest
 from matplotlib.container import BarContainer
 from matplotlib.patches import Rectangle
 
-from bench import plot, stats
+from bench import labels, plot, stats
 
 ENVS = ["HopperBulletEnv-v0", "InvertedPendulumBulletEnv-v0"]  # Pendulum comes first in the paper
 DEMOS = [1, 10]
@@ -54,7 +54,7 @@ def test_figure2_panels_bars_and_labels():
         "Random (0)",
         "Expert (1)",
     ]
-    assert plot.ACTIONS_FOOTNOTE in [t.get_text() for t in fig.texts]
+    assert labels.ACTIONS_FOOTNOTE in [t.get_text() for t in fig.texts]
     assert fig.get_suptitle()
 
 
@@ -79,7 +79,7 @@ def test_figure2_writes_png_and_pdf(tmp_path):
 def test_figure2_without_action_users_has_no_footnote():
     df = frame()
     fig = plot.draw_figure2(df[df["algorithm"] != "gail"])
-    assert plot.ACTIONS_FOOTNOTE not in [t.get_text() for t in fig.texts]
+    assert labels.ACTIONS_FOOTNOTE not in [t.get_text() for t in fig.texts]
 
 
 def test_figure2_needs_a_learner():
@@ -89,7 +89,7 @@ def test_figure2_needs_a_learner():
 
 
 def test_order_and_colors_are_fixed():
-    assert plot.algorithm_order(["zeta", "tcn", "random", "gaifo", "alpha"]) == [
+    assert labels.algorithm_order(["zeta", "tcn", "random", "gaifo", "alpha"]) == [
         "gaifo",
         "tcn",
         "alpha",
@@ -99,9 +99,9 @@ def test_order_and_colors_are_fixed():
         plot.algorithm_colors(["gail"])["gail"]
         == plot.algorithm_colors(["gaifo", "gail", "x"])["gail"]
     )
-    assert plot.env_order(["Pendulum-v1", *ENVS]) == [ENVS[1], ENVS[0], "Pendulum-v1"]
-    assert plot.env_label("Walker2DBulletEnv-v0") == "Walker2D"
-    assert plot.env_label("Pendulum-v1") == "Pendulum"
+    assert labels.env_order(["Pendulum-v1", *ENVS]) == [ENVS[1], ENVS[0], "Pendulum-v1"]
+    assert labels.env_label("Walker2DBulletEnv-v0") == "Walker2D"
+    assert labels.env_label("Pendulum-v1") == "Pendulum"
 
 
 def test_summary_table():
@@ -110,7 +110,7 @@ def test_summary_table():
     assert lines[0] == "| env | algorithm | no demos | 1 demo | 10 demos |"
     assert "| InvertedPendulum | GAIfO |  | 0.15 ± 0.10 | 0.60 ± 0.10 |" in lines
     assert "| InvertedPendulum | Random | 0.01 ± 0.01 |  |  |" in lines
-    assert lines[-1] == plot.ACTIONS_FOOTNOTE
+    assert lines[-1] == labels.ACTIONS_FOOTNOTE
 
 
 def test_summary_csv(tmp_path):

@@ -10,7 +10,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from bench import cli, report, stats, store
+from bench import cli, comparisons, report, stats, store
 from bench.types import CurvePoint, TrialResult, TrialSpec
 
 ENVS = {"InvertedPendulumBulletEnv-v0": (20.0, 1000.0), "HopperBulletEnv-v0": (-5.0, 2500.0)}
@@ -140,25 +140,25 @@ def test_per_env_statistics_keep_every_seed_an_env_has(tmp_path):
     # gaifo on Hopper: 0.7 + 0.05 seed for seeds 0-5; the middle half is seeds 2, 3 (and halves of 1, 4)
     assert iqm.loc[(hopper, "gaifo"), "seeds"] == 6
     assert iqm.loc[(hopper, "gaifo"), "estimate"] == pytest.approx(0.7 + 0.05 * 2.5)
-    assert iqm.loc[(report.POOLED, "gaifo"), "estimate"] == pytest.approx(0.7 + 0.05 * 1.5)
+    assert iqm.loc[(comparisons.POOLED, "gaifo"), "estimate"] == pytest.approx(0.7 + 0.05 * 1.5)
     improved = rows[rows["statistic"] == "p_improvement"].set_index(
         ["env_id", "algorithm", "other"]
     )
-    for env_id in (*ENVS, report.POOLED):  # every gail run beats every survival run, on each env
+    for env_id in (*ENVS, comparisons.POOLED):  # every gail run beats every survival run, on each env
         assert improved.loc[(env_id, "gail", "survival"), "estimate"] == 1.0
         assert improved.loc[(env_id, "gaifo", "gail"), "estimate"] == 1.0
 
 
 def test_improvement_pairs_set_gaifo_against_all_and_all_against_the_control():
-    assert report.improvement_pairs(["survival", "bco", "gaifo", "gail"]) == [
+    assert comparisons.improvement_pairs(["survival", "bco", "gaifo", "gail"]) == [
         ("gaifo", "gail"),
         ("gaifo", "bco"),
         ("gaifo", "survival"),
         ("gail", "survival"),
         ("bco", "survival"),
     ]
-    assert report.improvement_pairs(["gail", "survival"]) == [("gail", "survival")]
-    assert report.improvement_pairs(["gail", "bco"]) == []
+    assert comparisons.improvement_pairs(["gail", "survival"]) == [("gail", "survival")]
+    assert comparisons.improvement_pairs(["gail", "bco"]) == []
 
 
 def test_distance_to_the_expert_states(written):
@@ -317,15 +317,15 @@ def test_ceiling_of_matches_a_variant_suffix_else_the_plain_oracle():
         "oracle": "oracle",
         "oracle-b1024": "oracle",
     }
-    assert report.ceiling_of("gaifo-b1024", methods) == "oracle-b1024"
-    assert report.ceiling_of("gaifo", methods) == "oracle"
-    assert report.ceiling_of("gail-x", methods | {"gail-x": "gail"}) == "oracle"
-    assert report.ceiling_of("gaifo", {"gaifo": "gaifo"}) is None
+    assert comparisons.ceiling_of("gaifo-b1024", methods) == "oracle-b1024"
+    assert comparisons.ceiling_of("gaifo", methods) == "oracle"
+    assert comparisons.ceiling_of("gail-x", methods | {"gail-x": "gail"}) == "oracle"
+    assert comparisons.ceiling_of("gaifo", {"gaifo": "gaifo"}) is None
     sac = {
         "gaifo": "gaifo",
         "gaifo-sac": "gaifo-sac",
         "oracle": "oracle",
         "oracle-sac": "oracle-sac",
     }
-    assert report.ceiling_of("gaifo-sac", sac) == "oracle-sac"  # each optimizer's own ceiling
-    assert report.ceiling_of("gaifo", sac) == "oracle"
+    assert comparisons.ceiling_of("gaifo-sac", sac) == "oracle-sac"  # each optimizer's own ceiling
+    assert comparisons.ceiling_of("gaifo", sac) == "oracle"

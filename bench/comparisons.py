@@ -1,0 +1,245 @@
+"""Who a report sets against whom, and the statistics of it: pure functions over the tidy
+normalized frame (`store.load` -> `normalize`), each returning a frame. Nothing here writes
+or renders; `bench.report` draws and words what these compute.
+
+- per demonstration count, pooled over envs: mean, median and IQM with CIs, probabilities of
+  improvement, a performance profile (`count_statistics`);
+- per env at one count: each learner's IQM, its probabilities of improvement, and its IQM as
+  a fraction of its optimizer's oracle (`per_env_statistics`);
+- per count: how far the learners' states lie from the expert's (`state_match_statistics`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Collection
+from dataclasses import dataclass, field
+
+import numpy as np
+import pandas as pd
+
+from bench import labels, stats
+from bench.normalize import (
+    CEILINGS,
+    EXPERT,
+    ORACLE,
+    RANDOM,
+    REFERENCES,
+    SURVIVAL,
+    demo_free,
+    method,
+    optimizer_of,
+)
+
+TARGET = "gaifo"
+"""The algorithm whose probability of improvement over the others is reported."""
+CONTROL = SURVIVAL
+"""The no-demonstration control every other learner is also compared with."""
+POOLED = "pooled"
+"""env_id of per_env.csv's rows over every env (aggregates.csv's and improvement.csv's numbers)."""
+TAUS = 81
+"""Score thresholds in a performance profile."""
+PER_ENV_COLUMNS = [
+    "n_demos",
+    "env_id",
+    "statistic",
+    "algorithm",
+    "other",
+    "seeds",
+    "estimate",
+    "lo",
+    "hi",
+]
+STATE_MATCH_COLUMNS = [
+    "n_demos",
+    "algorithm",
+    "runs",
+    "iqm",
+    "lo",
+    "hi",
+    "p_closer",
+    "p_lo",
+    "p_hi",
+]
+
+
+def demo_counts(df: pd.DataFrame) -> list[int]:
+    """The demonstration counts the learners ran with; [0] when every learner is demonstration-free."""
+    learners = df[~df["algorithm"].isin(REFERENCES)]
+    counts = sorted(int(n) for n in learners["n_demos"].unique() if n > 0)
+    return counts or ([0] if len(learners) else [])
+
+
+def competitors(df: pd.DataFrame, n_demos: int) -> list[str]:
+    """Learners with trials at `n_demos`, plus the demonstration-free ones (controls), in plot order."""
+    learners = df[~df["algorithm"].isin(REFERENCES)]
+    here = learners["n_demos"] == n_demos
+    return labels.algorithm_order(set(learners.loc[here | demo_free(learners), "algorithm"]))
+
+
+def methods(df: pd.DataFrame) -> dict[str, str]:
+    """Shown name -> registered algorithm (the name itself in frames without `method`)."""
+    return dict(zip(df["algorithm"], method(df), strict=True))
+
+
+def ceilings_among(names: Collection[str], registered: dict[str, str]) -> list[str]:
+    """Which of `names` are oracles (of either optimizer, labelled variants included)."""
+    return [a for a in names if registered.get(a) in CEILINGS]
+
+
+def improvement_pairs(
+    names: Collection[str], ceilings: Collection[str] = (ORACLE,)
+) -> list[tuple[str, str]]:
+    """The (a, b) whose P(a > b) a report gives: GAIfO against every other learner, then every
+    other learner against the survival control (did it learn from the demonstrations at all?).
+    The oracle's `ceilings` are references, read as fractions (`oracle_fractions`), not rivals."""
+    ordered = labels.in_order([n for n in names if n not in ceilings])
+    pairs = [(TARGET, other) for other in ordered if other != TARGET] if TARGET in names else []
+    if CONTROL in names:
+        pairs += [(a, CONTROL) for a in ordered if a not in (TARGET, CONTROL)]
+    return pairs
+
+
+def ceiling_of(learner: str, methods: dict[str, str]) -> str | None:
+    """The oracle variant `learner` is read against, among its optimizer's oracles
+    (`oracle` for TRPO learners, `oracle-sac` for SAC's): the one whose label shares the
+    learner's variant suffix (gaifo-b1024 -> oracle-b1024), else the plain one, else None.
+    `methods`: shown name -> registered algorithm, for every name present."""
+    registered = methods.get(learner, learner)
+    family = optimizer_of(registered)
+    oracles = {
+        name: m for name, m in methods.items() if m in CEILINGS and optimizer_of(m) == family
+    }
+    suffix = learner.removeprefix(registered)
+    for name, m in oracles.items():
+        if suffix and name == f"{m}{suffix}":
+            return name
+    plain = [name for name, m in oracles.items() if name == m]
+    return plain[0] if plain else None
+
+
+def oracle_fractions(
+    scores: dict[str, np.ndarray], methods: dict[str, str], reps: int = 2000
+) -> pd.DataFrame:
+    """Each learner's IQM as a fraction of its oracle's (`ceiling_of`), with a 95% bootstrap CI:
+    algorithm, other (the oracle), estimate, lo, hi. Empty where no oracle ran."""
+    rows = []
+    for i, name in enumerate(scores):
+        ceiling = ceiling_of(name, methods)
+        if methods.get(name) in CEILINGS or ceiling is None or ceiling not in scores:
+            continue
+        ratio = stats.iqm_ratio(scores[name], scores[ceiling], reps=reps, seed=i)
+        rows.append({"algorithm": name, "other": ceiling, **ratio})
+    return pd.DataFrame(rows, columns=["algorithm", "other", "estimate", "lo", "hi"])
+
+
+@dataclass
+class CountStatistics:
+    """The pooled statistics at one demonstration count."""
+
+    scores: dict[str, np.ndarray]
+    """{learner: (seeds x envs) normalized scores} (stats.score_dict); empty if none."""
+    aggregate: pd.DataFrame = field(default_factory=pd.DataFrame)
+    """algorithm, metric, estimate, lo, hi, seeds, envs"""
+    improvement: pd.DataFrame = field(default_factory=pd.DataFrame)
+    """algorithm, other, estimate, lo, hi"""
+    profile: pd.DataFrame | None = None
+    """stats.performance_profile's frame"""
+    left_out: list[str] = field(default_factory=list)
+    """What score_dict dropped (envs or seeds some learner lacks), in words."""
+    failure: str | None = None
+    """Why there are no statistics at all, in words (None: there are)."""
+
+
+def count_statistics(df: pd.DataFrame, n: int, reps: int) -> CountStatistics:
+    """Every learner's pooled aggregates, the probabilities of improvement
+    (`improvement_pairs`) and the performance profile at `n` demonstrations."""
+    left_out: list[str] = []
+    try:
+        scores = stats.score_dict(df, n, algorithms=competitors(df, n), left_out=left_out)
+    except ValueError as e:
+        return CountStatistics({}, left_out=left_out, failure=str(e))
+    aggregate = stats.aggregate_scores(scores, reps=reps)
+    aggregate = aggregate.assign(
+        seeds=[scores[a].shape[0] for a in aggregate["algorithm"]],
+        envs=[scores[a].shape[1] for a in aggregate["algorithm"]],
+    )
+    pairs = improvement_pairs(scores, ceilings_among(scores, methods(df)))
+    improvement = stats.improvement_of_pairs(scores, pairs, reps=reps) if pairs else pd.DataFrame()
+    everything = np.concatenate([s.ravel() for s in scores.values()])
+    taus = np.linspace(min(0.0, everything.min()), max(1.0, everything.max()), TAUS)
+    profile = stats.performance_profile(scores, taus, reps=reps)
+    return CountStatistics(scores, aggregate, improvement, profile, left_out)
+
+
+def per_env_statistics(df: pd.DataFrame, n: int, reps: int) -> pd.DataFrame:
+    """Env by env at `n` demonstrations (PER_ENV_COLUMNS): each learner's IQM over every seed
+    that env has, its probabilities of improvement on that env alone, and its IQM as a
+    fraction of its oracle's (statistic "iqm", "p_improvement", "of_oracle")."""
+    rows = []
+    for env_id in labels.env_order(df["env_id"].unique()):
+        here = df[df["env_id"] == env_id]
+        names = competitors(here, n)
+        if not names:
+            continue
+        scores = stats.score_dict(here, n, algorithms=names, left_out=[])
+        iqm = stats.aggregate_scores(scores, reps=reps)
+        for r in iqm[iqm["metric"] == "iqm"].itertuples():
+            seeds = len(scores[r.algorithm])
+            rows.append((n, env_id, "iqm", r.algorithm, "", seeds, r.estimate, r.lo, r.hi))
+        registered = methods(here)
+        pairs = improvement_pairs(scores, ceilings_among(scores, registered))
+        for r in stats.improvement_of_pairs(scores, pairs, reps=reps).itertuples():
+            seeds = min(len(scores[r.algorithm]), len(scores[r.other]))
+            rows.append(
+                (n, env_id, "p_improvement", r.algorithm, r.other, seeds, r.estimate, r.lo, r.hi)
+            )
+        for r in oracle_fractions(scores, registered, reps).itertuples():
+            seeds = len(scores[r.algorithm])
+            rows.append(
+                (n, env_id, "of_oracle", r.algorithm, r.other, seeds, r.estimate, r.lo, r.hi)
+            )
+    return pd.DataFrame(rows, columns=PER_ENV_COLUMNS)
+
+
+def pooled_rows(n: int, aggregate: pd.DataFrame, improvement: pd.DataFrame) -> pd.DataFrame:
+    """The pooled statistics at `n` demonstrations as per_env rows (env_id POOLED)."""
+    rows = []
+    if len(aggregate):
+        for r in aggregate[aggregate["metric"] == "iqm"].itertuples():
+            rows.append((n, POOLED, "iqm", r.algorithm, "", r.seeds, r.estimate, r.lo, r.hi))
+    for r in improvement.itertuples():
+        rows.append((n, POOLED, "p_improvement", r.algorithm, r.other, "", r.estimate, r.lo, r.hi))
+    return pd.DataFrame(rows, columns=PER_ENV_COLUMNS)
+
+
+def state_match_statistics(df: pd.DataFrame, n: int, reps: int) -> pd.DataFrame:
+    """How far each learner's (and the references') evaluation states lie from the expert's
+    at `n` demonstrations: IQM distance with its CI, and P(GAIfO closer) (STATE_MATCH_COLUMNS;
+    empty where the records hold no distance: pixels, or records from before)."""
+    measured = df.dropna(subset=["state_distance"])
+    names = [
+        *competitors(measured, n),
+        *(a for a in (EXPERT, RANDOM) if a in set(measured["algorithm"])),
+    ]
+    try:
+        distances = stats.score_dict(
+            measured, n, algorithms=names, column="state_distance", left_out=[]
+        )
+    except ValueError:
+        return pd.DataFrame(columns=STATE_MATCH_COLUMNS)
+    aggregate = stats.aggregate_scores(distances, reps=reps)
+    iqm = aggregate[aggregate["metric"] == "iqm"].set_index("algorithm")
+    closer = pd.DataFrame()
+    if TARGET in distances and len(distances) > 1:  # closer is better: compare negated distances
+        negated = {a: -d for a, d in distances.items()}
+        closer = stats.probability_of_improvement(negated, TARGET, reps=reps).set_index("other")
+    rows = []
+    for a in labels.in_order(list(distances)):
+        d = iqm.loc[a]
+        row = {"n_demos": n, "algorithm": a, "runs": "{} × {}".format(*distances[a].shape)}
+        row |= {"iqm": d["estimate"], "lo": d["lo"], "hi": d["hi"]}
+        if a in closer.index:
+            p = closer.loc[a]
+            row |= {"p_closer": p["estimate"], "p_lo": p["lo"], "p_hi": p["hi"]}
+        rows.append(row)
+    return pd.DataFrame(rows, columns=STATE_MATCH_COLUMNS)
