@@ -19,6 +19,10 @@ LABELS = {
     "tcn": "TCN",
     "survival": "Survival",
     "oracle": "Oracle",
+    "gaifo-sac": "GAIfO (SAC)",
+    "gail-sac": "GAIL (SAC)",
+    "survival-sac": "Survival (SAC)",
+    "oracle-sac": "Oracle (SAC)",
     "random": "Random",
     "expert": "Expert",
 }

@@ -2,6 +2,7 @@
 
     python benchmarks/throughput.py [--steps 60000] [--envs InvertedPendulumBulletEnv-v0 HopperBulletEnv-v0]
     python benchmarks/throughput.py --pixels --steps 10000   # from 64x64 frames (`observation: pixels`)
+    python benchmarks/throughput.py --envs HopperBulletEnv-v0 --steps 5000 --sac 128 256   # SAC beside
 
 Prints one row per env. `trpo/raw` = TRPO training throughput (updates
 included) over raw stepping: the simulator is the limit, everything else is
@@ -85,6 +86,27 @@ def gaifo_steps_per_s(env_id: str, steps: int, pixels: PixelConfig | None = None
     return (n1 - n0) / (t1 - t0)
 
 
+def sac_steps_per_s(env_id: str, steps: int, hidden: tuple[int, ...]) -> float:
+    """SAC on the env's reward, one update per env step (its default), timed after the random
+    warm-up: what the off-policy learners cost per env step once they learn."""
+    from bench.rl import sac
+
+    cfg = sac.SACConfig(hidden=hidden, learning_starts=1000)
+    timings: list[tuple[int, float]] = []
+    start = time.perf_counter()
+    sac.train(
+        lambda s: envs.make(env_id, s),
+        cfg.learning_starts + steps,
+        0,
+        cfg,
+        callback=lambda n, *_: timings.append((n, time.perf_counter() - start)),
+        report_every=500,
+    )
+    learning = [(n, t) for n, t in timings if n > cfg.learning_starts]
+    (n0, t0), (n1, t1) = learning[0], learning[-1]
+    return (n1 - n0) / (t1 - t0)
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
@@ -96,6 +118,14 @@ def main() -> None:
     parser.add_argument("--pixels", action="store_true", help="observe stacked grayscale frames")
     parser.add_argument(
         "--frame-size", type=int, default=PixelConfig.size, help="frame side with --pixels"
+    )
+    parser.add_argument(
+        "--sac",
+        type=int,
+        nargs="+",
+        metavar="WIDTH",
+        help="also SAC (one update per env step) with WIDTH x WIDTH networks, e.g. --sac 128 256;"
+        " --steps then counts its learning steps",
     )
     args = parser.parse_args()
     pixels = PixelConfig(size=args.frame_size) if args.pixels else None
@@ -110,6 +140,11 @@ def main() -> None:
             f"{env_id:32s}{raw:15,.0f}{trpo:15,.0f}{gaifo:15,.0f}{trpo / raw:15.2f}{gaifo / trpo:15.2f}",
             flush=True,
         )
+        for width in args.sac or []:
+            off = sac_steps_per_s(env_id, args.steps, (width, width))
+            print(
+                f"  SAC {width} x {width}: {off:,.0f} steps/s ({trpo / off:.1f}x TRPO's cost per step)"
+            )
 
 
 if __name__ == "__main__":
