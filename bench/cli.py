@@ -254,10 +254,10 @@ def _report(args: argparse.Namespace) -> int:
 
 
 def _compare(args: argparse.Namespace) -> int:
-    from bench import labels, report, stats
+    from bench import labels, normalize, report, stats
 
     run, ref = (_one_suite(args.run), _one_suite(args.reference))
-    run_df, ref_df = _normalized_alike(run, ref)
+    run_df, ref_df = normalize.normalized_alike(run, ref)
     comparison = stats.compare(run_df, ref_df, reps=args.reps)
     starred = labels.action_users(run_df) | labels.action_users(ref_df)
     print(report.compare_table(comparison, str(args.run), str(args.reference), starred))
@@ -274,23 +274,6 @@ def _one_suite(folder: str) -> pd.DataFrame:
             f"{folder} holds {len(dirs)} suites' records ({', '.join(map(str, dirs))}); name one"
         )
     return store.load(dirs[0])
-
-
-def _normalized_alike(run: pd.DataFrame, ref: pd.DataFrame) -> tuple[pd.DataFrame, pd.DataFrame]:
-    """Both frames on their shared envs, normalized with the reference's random and expert
-    returns (the run's where the reference lacks them), so both sides share one scale."""
-    from bench import normalize
-    from bench.stats import ComparisonError
-
-    envs = sorted(set(run["env_id"]) & set(ref["env_id"]))
-    if not envs:
-        raise ComparisonError("the two folders share no env")
-    run, ref = run[run["env_id"].isin(envs)], ref[ref["env_id"].isin(envs)]
-    for frame in (run, ref):
-        normalize.check_one_record_per_seed(frame)
-    refs = normalize.reference_returns(ref).set_index("env_id")
-    refs = refs.combine_first(normalize.reference_returns(run).set_index("env_id")).reset_index()
-    return normalize.normalize(run, refs), normalize.normalize(ref, refs)
 
 
 def _demos_export(args: argparse.Namespace) -> int:

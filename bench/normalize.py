@@ -124,3 +124,18 @@ def normalize(df: pd.DataFrame, references: pd.DataFrame | None = None) -> pd.Da
     random = df["env_id"].map(refs[RANDOM])
     expert = df["env_id"].map(refs[EXPERT])
     return df.assign(normalized=(df["return"] - random) / (expert - random))
+
+
+def normalized_alike(run: pd.DataFrame, ref: pd.DataFrame) -> tuple[pd.DataFrame, pd.DataFrame]:
+    """Two suites' trials (`bench compare RUN REF`) on their shared envs, both normalized with
+    the reference's random and expert returns (the run's where the reference lacks them), so
+    both sides share one scale."""
+    envs = sorted(set(run["env_id"]) & set(ref["env_id"]))
+    if not envs:
+        raise NormalizationError("the two folders share no env")
+    run, ref = run[run["env_id"].isin(envs)], ref[ref["env_id"].isin(envs)]
+    for frame in (run, ref):
+        check_one_record_per_seed(frame)
+    refs = reference_returns(ref).set_index("env_id")
+    refs = refs.combine_first(reference_returns(run).set_index("env_id")).reset_index()
+    return normalize(run, refs), normalize(ref, refs)
