@@ -30,6 +30,7 @@ from bench.registry import Logger, Policy, Task, register
 from bench.rl.networks import DeterministicPolicy, GaussianPolicy, RunningNorm, mlp
 from bench.rl.rollout import VecCollector
 from bench.types import Demos
+from bench.validate import above, at_least
 
 
 @dataclass
@@ -71,6 +72,9 @@ class BCOConfig:
             raise ValueError("need n_envs >= 1 and pre_demo_steps >= n_envs")
         if self.alpha < 0 or not 0 < self.val_fraction < 1:
             raise ValueError("need alpha >= 0 and 0 < val_fraction < 1")
+        at_least(self, 1, "inverse_steps", "inverse_refit_steps", "bc_steps", "minibatch")
+        at_least(self, 0, "max_iterations")
+        above(self, 0, "inverse_lr", "bc_lr")
 
 
 class InverseModel(nn.Module):

@@ -29,6 +29,11 @@ class ImitationTRPOConfig(TRPOConfig):
     InvertedPendulum (100k, 1 and 5 demos, 10 seeds each): seeds below 0.95 went from 3 of 20
     to 0 (GAIfO) and from 5 of 20 to 2 (GAIL) with 0.9."""
 
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        if not 0 <= self.policy_average < 1:
+            raise ValueError(f"policy_average must be in [0, 1), not {self.policy_average}")
+
 
 def one_batch(config: TRPOConfig) -> int:
     """A TRPO learner's smallest budget: one batch (`register(..., min_budget=one_batch)`)."""

@@ -38,6 +38,7 @@ from bench.rl.rollout import Batch
 from bench.rl.trpo import TRPO, TRPOConfig
 from bench.rl.trpo import train as trpo_train
 from bench.types import Demos
+from bench.validate import above, at_least
 
 
 @dataclass
@@ -75,6 +76,9 @@ class TCNConfig(TRPOConfig):
         self.embed_hidden = tuple(self.embed_hidden)
         if not 1 <= self.pos_window < self.neg_margin:
             raise ValueError("need 1 <= pos_window < neg_margin")
+        at_least(self, 1, "embed_dim", "embed_steps", "embed_minibatch")
+        at_least(self, 0, "triplet_margin", "reward_alpha", "reward_beta")
+        above(self, 0, "embed_lr", "reward_gamma")
 
 
 class Embedding(nn.Module):

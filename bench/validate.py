@@ -35,3 +35,20 @@ def check_types(config: type, overrides: dict[str, Any]) -> None:
         if not field:  # the dataclass's own check (its __post_init__) refused the values
             raise ValueError(first["msg"].removeprefix("Value error, ")) from None
         raise ValueError(f"{field}: {first['msg'].lower()}, not {first['input']!r}") from None
+
+
+def at_least(config: object, minimum: float, *names: str) -> None:
+    """For a config's `__post_init__`: raise ValueError naming the first of `names` whose value
+    is below `minimum` (None is allowed: an unset optional)."""
+    for name in names:
+        value = getattr(config, name)
+        if value is not None and value < minimum:
+            raise ValueError(f"{name} must be >= {minimum}, not {value}")
+
+
+def above(config: object, minimum: float, *names: str) -> None:
+    """As `at_least`, strictly: each of `names` must be > `minimum` (learning rates, say)."""
+    for name in names:
+        value = getattr(config, name)
+        if value is not None and value <= minimum:
+            raise ValueError(f"{name} must be > {minimum}, not {value}")

@@ -20,6 +20,7 @@ from torch import nn
 
 from bench.rl.networks import ConvTrunk, GaussianPolicy, ObsShape, RunningNorm, ValueNet
 from bench.rl.rollout import Batch, RewardFn, Rewards, VecCollector
+from bench.validate import above, at_least
 
 
 @dataclass
@@ -63,6 +64,9 @@ class TRPOConfig:
                 raise ValueError(f"{name} must be >= 1, not {getattr(self, name)}")
         if not (0 < self.gamma <= 1 and 0 <= self.gae_lambda <= 1 and self.max_kl > 0):
             raise ValueError("need 0 < gamma <= 1, 0 <= gae_lambda <= 1 and max_kl > 0")
+        at_least(self, 1, "line_search_steps")
+        at_least(self, 0, "cg_damping")
+        above(self, 0, "vf_lr")
 
     @property
     def batch_size(self) -> int:
