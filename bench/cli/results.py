@@ -1,0 +1,123 @@
+"""`bench plot`, `bench report` and `bench compare`: what the records say."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+from bench.cli.args import at_least, folder
+
+if TYPE_CHECKING:
+    import pandas as pd
+
+
+def _plot(args: argparse.Namespace) -> int:
+    from bench import labels, normalize, plot, store
+
+    dirs = store.suite_dirs(args.results_dir)
+    for d in dirs:
+        trials = store.load(d)
+        if trials.empty:
+            raise FileNotFoundError(f"{store.trials_dir(d)}: no readable trial record")
+        df = normalize.normalize(trials)
+        left_out = df[df["status"] != "ok"]
+        if len(left_out):
+            kinds = ", ".join(f"{n} {s}" for s, n in left_out["status"].value_counts().items())
+            print(f"{d}: {len(left_out)} records left out ({kinds})", file=sys.stderr)
+        written = []
+        if labels.algorithm_order(df["algorithm"].unique()):
+            out = Path(args.out) if args.out and len(dirs) == 1 else d / "figure2.png"
+            written = plot.figure2(df, out)
+        else:
+            print(f"{d}: no learner's records, only references: no figure", file=sys.stderr)
+        plot.write_summary_csv(df, d / "summary.csv")
+        print(f"## {d}\n\n{plot.summary_table(df)}\n")
+        print("wrote " + ", ".join(str(p) for p in [*written, d / "summary.csv"]) + "\n")
+    return 0
+
+
+def _report(args: argparse.Namespace) -> int:
+    from bench import report
+
+    for written in report.write_reports(args.results_dir, args.out, args.reps):
+        tables = report.tables(written.aggregates, written.improvements, written.action_users)
+        print(f"## {written.path}\n\n{tables}")
+        print(f"wrote {written.path} (figures and aggregates.csv beside it)\n")
+    return 0
+
+
+def _compare(args: argparse.Namespace) -> int:
+    from bench import labels, normalize, report, stats
+
+    run, ref = (_one_suite(args.run), _one_suite(args.reference))
+    run_df, ref_df = normalize.normalized_alike(run, ref)
+    comparison = stats.compare(run_df, ref_df, reps=args.reps)
+    starred = labels.action_users(run_df) | labels.action_users(ref_df)
+    print(report.compare_table(comparison, str(args.run), str(args.reference), starred))
+    return 0
+
+
+def _one_suite(folder: str) -> pd.DataFrame:
+    """The trial records of the one suite in `folder`."""
+    from bench import store
+
+    dirs = store.suite_dirs(folder)
+    if len(dirs) > 1:
+        raise FileNotFoundError(
+            f"{folder} holds {len(dirs)} suites' records ({', '.join(map(str, dirs))}); name one"
+        )
+    return store.load(dirs[0])
+
+
+def add(sub: argparse._SubParsersAction) -> None:
+    """The `plot`, `report` and `compare` commands."""
+    plot = sub.add_parser(
+        "plot",
+        help="draw Figure 2, write summary.csv and print a table for each suite's results",
+        description="Find every suite's records under RESULTS_DIR (experts skipped) and draw each.",
+    )
+    plot.add_argument("results_dir", help="e.g. results/ or results/quick")
+    plot.add_argument(
+        "--out", metavar="FILE", help="figure path (.png; a .pdf is written beside it)"
+    )
+    plot.set_defaults(func=_plot)
+
+    rep = sub.add_parser(
+        "report",
+        help="aggregate statistics (IQM, CIs, probability of improvement) and a markdown report",
+        description="Find every suite's records under RESULTS_DIR and write report.md with its figures.",
+    )
+    rep.add_argument("results_dir", help="e.g. results/ or results/quick")
+    rep.add_argument(
+        "--out",
+        metavar="DIR",
+        type=folder,
+        help="report folder (default <suite dir>/report; one per suite)",
+    )
+    rep.add_argument(
+        "--reps",
+        type=at_least(1),
+        default=2000,
+        metavar="N",
+        help="bootstrap resamples per interval (default 2000)",
+    )
+    rep.set_defaults(func=_report)
+
+    cmp = sub.add_parser(
+        "compare",
+        help="compare two results folders' IQMs per env, algorithm and demo count",
+        description="Per env, algorithm and demo count in both folders: each folder's IQM over"
+        " seeds with a 95%% CI, and whether they differ (the CI of the difference excludes 0).",
+    )
+    cmp.add_argument("run", help="a suite's results folder, e.g. runs/quick")
+    cmp.add_argument("reference", help="the folder to compare against, e.g. results/quick")
+    cmp.add_argument(
+        "--reps",
+        type=at_least(1),
+        default=2000,
+        metavar="N",
+        help="bootstrap resamples (default 2000)",
+    )
+    cmp.set_defaults(func=_compare)

@@ -1,0 +1,150 @@
+"""`bench run`: run a suite's pending trials, or price them (`--estimate`)."""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+from bench.cli.args import folder, jobs_count
+
+if TYPE_CHECKING:
+    pass
+
+
+def _run(args: argparse.Namespace) -> int:
+    from bench import store
+    from bench.runner import run_suite
+    from bench.suite import expand, load_suite, select
+
+    suite = load_suite(args.suite)
+    specs = select(expand(suite), args.suite, env=args.env, algorithm=args.algorithm)
+    results = Path(args.results) if args.results else Path("results") / suite.name
+    backend = args.backend or suite.runner.backend
+    jobs = args.jobs if args.jobs is not None else suite.runner.jobs
+    if args.estimate:
+        return _estimate(specs, results, jobs)
+    with store.claim(results):
+        print(f"suite {suite.name}: {len(specs)} trials -> {results}/", file=sys.stderr)
+        if args.reuse:
+            from bench.reuse import reuse
+
+            copied = reuse(specs, results, args.reuse)
+            print(f"{copied} finished trials copied from {', '.join(args.reuse)}", file=sys.stderr)
+        summary = run_suite(
+            specs,
+            results,
+            jobs=jobs,
+            backend=backend,
+            scheduler=args.scheduler,
+            retry_failed=args.retry_failed,
+            device=args.device,
+            tensorboard=args.tensorboard,
+        )
+    print(
+        f"{summary.done} trials done, {summary.failed} failed, "
+        f"{summary.skipped} already finished (records in {results}/trials)"
+    )
+    if summary.failed:
+        print("rerun with --retry-failed to try the failed trials again", file=sys.stderr)
+    return 1 if summary.failed else 0
+
+
+def _estimate(specs: list, results: Path, jobs: int) -> int:
+    """Print what the pending trials would cost, from every record under results/'s parent."""
+    from bench import store
+    from bench.costs import estimate
+    from bench.runner import pending
+
+    finished = {r.trial_id: r.status for r in store.scan(results)}
+    todo = pending(specs, finished, retry_failed=False)
+    records = [r for d in store.find_result_dirs(results.parent) for r in store.scan(d)]
+    rows = estimate(todo, records)
+    print(f"{len(todo)} of {len(specs)} trials pending -> {results}/")
+    width = max([36, *(len(r.env_id) for r in rows)])
+    print(
+        f"{'env':{width}s} {'algorithm':14s} {'trials':>6s} {'per trial':>10s} {'core-h':>7s}  basis"
+    )
+    known = 0.0
+    for r in sorted(rows, key=lambda r: (r.env_id, r.algorithm)):
+        each = "?" if r.seconds is None else f"{r.seconds / 60:.1f} min"
+        hours = "?" if r.seconds is None else f"{r.seconds * r.trials / 3600:.2f}"
+        known += 0.0 if r.seconds is None else r.seconds * r.trials
+        print(
+            f"{r.env_id:{width}s} {r.algorithm:14s} {r.trials:6d} {each:>10s} {hours:>7s}  {r.basis}"
+        )
+    cores = jobs if jobs > 0 else os.cpu_count() or 1
+    unknown = sum(r.trials for r in rows if r.seconds is None)
+    print(
+        f"total {known / 3600:.1f} core-hours, ~{known / 3600 / cores:.1f} h wall on {cores} cores"
+        + (f"; {unknown} trials with nothing to go by" if unknown else "")
+    )
+    return 0
+
+
+def add(sub: argparse._SubParsersAction) -> None:
+    """The `run` command."""
+    run = sub.add_parser(
+        "run",
+        help="run a YAML suite (resumable: finished trials are skipped)",
+        description="Expand SUITE to env x demos x algorithm x seed trials and run the unfinished ones.",
+    )
+    run.add_argument("suite", help="path of a suite file, e.g. suites/quick.yaml")
+    run.add_argument(
+        "--results",
+        metavar="DIR",
+        type=folder,
+        help="where records go (default results/<suite name>)",
+    )
+    run.add_argument(
+        "--env",
+        action="append",
+        metavar="ID",
+        help="run only this env's trials (repeatable); records stay those of the whole suite",
+    )
+    run.add_argument(
+        "--algorithm",
+        action="append",
+        metavar="NAME",
+        help="run only this algorithm's trials (repeatable)",
+    )
+    run.add_argument(
+        "--jobs", type=jobs_count, help="parallel trials (default: the suite's, else all cores)"
+    )
+    run.add_argument("--retry-failed", action="store_true", help="rerun trials recorded as failed")
+    run.add_argument(
+        "--reuse",
+        action="append",
+        metavar="DIR",
+        help="copy finished records of the same trials (all alike but the suite's name) from"
+        " another results folder instead of running them (repeatable)",
+    )
+    run.add_argument(
+        "--estimate",
+        action="store_true",
+        help="run nothing: print the pending trials' expected core-hours, from the records"
+        " under the results folder's parent",
+    )
+    run.add_argument(
+        "--backend",
+        choices=["loky", "dask"],
+        help="joblib backend (default: the suite's, else loky)",
+    )
+    run.add_argument(
+        "--scheduler",
+        metavar="ADDRESS",
+        help="dask scheduler, e.g. tcp://10.0.0.1:8786 (dask backend)",
+    )
+    run.add_argument(
+        "--tensorboard",
+        metavar="DIR",
+        type=folder,
+        help="also write every trial's logged scalars there as TensorBoard events, live"
+        " (tensorboard --logdir DIR)",
+    )
+    run.add_argument(
+        "--device", default="cpu", help="torch device for networks, e.g. cuda (default cpu)"
+    )
+    run.set_defaults(func=_run)
