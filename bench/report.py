@@ -15,14 +15,13 @@ Nothing here trains or evaluates: it reads records and writes files.
 
 from __future__ import annotations
 
-import math
-from collections.abc import Collection, Sequence
+from collections.abc import Collection
 from pathlib import Path
 from typing import NamedTuple
 
 import pandas as pd
 
-from bench import comparisons, labels, plot, stats, store
+from bench import comparisons, labels, markdown, plot, stats, store
 from bench.comparisons import (
     PER_ENV_COLUMNS,
     POOLED,
@@ -31,9 +30,6 @@ from bench.comparisons import (
     demo_counts,
 )
 from bench.normalize import (
-    EXPERT,
-    ORACLE,
-    RANDOM,
     REFERENCES,
     demo_free,
     normalize,
@@ -47,9 +43,6 @@ STATE_MATCH_CSV = "state_match.csv"
 PER_ENV_CSV = "per_env.csv"
 AGGREGATE_COLUMNS = ["n_demos", "algorithm", "seeds", "envs", "metric", "estimate", "lo", "hi"]
 IMPROVEMENT_COLUMNS = ["n_demos", "algorithm", "other", "estimate", "lo", "hi"]
-MAX_LISTED = 20
-"""Failed trials named one by one in the header; the rest are counted."""
-METRIC_LABELS = {"mean": "mean", "median": "median", "iqm": "IQM"}
 
 
 # ---------------------------------------------------------------- entry points
@@ -138,15 +131,15 @@ def write_report(results_dir: Path, out_dir: Path | None = None, reps: int = 200
     )
 
     sections = [
-        _header(df, results_dir),
-        _how_to_read(learners, reps, starred),
-        _at_a_glance(aggregates, improvements, starred),
+        markdown.header(df, results_dir),
+        markdown.how_to_read(learners, reps, starred),
+        markdown.at_a_glance(aggregates, improvements, starred),
         figure_section,
         *(text for text, _, _ in per_count),
         *(text for text, _ in by_env),
         *(text for text, _ in matched),
-        _references(df),
-        _costs(df),
+        markdown.references(df),
+        markdown.costs(df),
     ]
     path = out_dir / REPORT
     path.write_text("\n\n".join(s.strip() for s in sections if s) + "\n")
@@ -160,11 +153,11 @@ def tables(
     `action_users` (labels.action_users of the records) are marked with a *."""
     parts = []
     for n in sorted(set(aggregates["n_demos"]) | set(improvement["n_demos"])):
-        parts.append(f"### {_demos_title(n)}")
-        parts.append(aggregate_table(aggregates[aggregates["n_demos"] == n], action_users))
+        parts.append(f"### {markdown.demos_title(n)}")
+        parts.append(markdown.aggregate_table(aggregates[aggregates["n_demos"] == n], action_users))
         rows = improvement[improvement["n_demos"] == n]
         if len(rows):
-            parts.append(improvement_table(rows, action_users))
+            parts.append(markdown.improvement_table(rows, action_users))
     if not parts:
         return "No aggregate statistics: no learning algorithm in these records.\n"
     return "\n\n".join(p.strip() for p in parts) + "\n"
@@ -183,275 +176,11 @@ def load_iqm_curves(results_dir: Path, trials: pd.DataFrame, reps: int = 2000) -
 # ---------------------------------------------------------------- markdown
 
 
-def aggregate_table(aggregates: pd.DataFrame, action_users: Collection[str] = ()) -> str:
-    """Markdown: a row per algorithm, a column per metric, each `estimate [lo, hi]`.
-
-    `aggregates`: stats.aggregate_scores rows of one demo count, plus seeds and envs columns.
-    """
-    metrics = [m for m in METRIC_LABELS if m in set(aggregates["metric"])]
-    header = ["algorithm", "runs (seeds × envs)"] + [
-        f"{METRIC_LABELS[m]} [95% CI]" for m in metrics
-    ]
-    lines = [_row(header), "|" + "---|" * len(header)]
-    cells = aggregates.set_index(["algorithm", "metric"])
-    for a in labels.in_order(aggregates["algorithm"]):
-        first = cells.loc[(a, metrics[0])]
-        runs = f"{int(first['seeds'])} × {int(first['envs'])}"
-        values = [_interval(*cells.loc[(a, m), ["estimate", "lo", "hi"]]) for m in metrics]
-        lines.append(_row([labels.algorithm_label(a, action_users), runs, *values]))
-    return "\n".join(lines) + "\n"
-
-
-def improvement_table(improvement: pd.DataFrame, action_users: Collection[str] = ()) -> str:
-    """Markdown: P(a > b) [95% CI], a row per (algorithm, other) pair of `improvement`."""
-    lines = [_row(["comparison", "P(improvement) [95% CI]"]), "|---|---|"]
-    for r in improvement.itertuples():
-        lines.append(
-            _row(
-                [_pair_label(r.algorithm, r.other, action_users), _interval(r.estimate, r.lo, r.hi)]
-            )
-        )
-    return "\n".join(lines) + "\n"
-
-
-def _pair_label(a: str, b: str, action_users: Collection[str]) -> str:
-    return f"{labels.algorithm_label(a, action_users)} > {labels.algorithm_label(b, action_users)}"
-
-
-def compare_table(
-    comparison: pd.DataFrame, run: str, reference: str, action_users: Collection[str] = ()
-) -> str:
-    """Markdown: per env, algorithm and demo count, IQM [95% CI] of the run and the reference,
-    their difference and the verdict (stats.compare); then how many rows agree."""
-    header = ["env", "algorithm", "demos", f"run ({run})", f"reference ({reference})"]
-    header += ["run - ref [95% CI]", "verdict"]
-    lines = [_row(header), "|" + "---|" * len(header)]
-    envs, algorithms = (
-        labels.env_order(comparison["env_id"]),
-        labels.in_order(comparison["algorithm"]),
-    )
-    ordered = comparison.sort_values(
-        ["env_id", "algorithm", "n_demos"],
-        key=lambda col: (
-            col.map((envs if col.name == "env_id" else algorithms).index)
-            if col.name != "n_demos"
-            else col
-        ),
-    )
-    for _, r in ordered.iterrows():
-        lines.append(
-            _row(
-                [
-                    labels.env_label(r["env_id"]),
-                    labels.algorithm_label(r["algorithm"], action_users),
-                    r["n_demos"],
-                    _interval(r["run_iqm"], r["run_lo"], r["run_hi"]) + f" ({r['run_seeds']})",
-                    _interval(r["ref_iqm"], r["ref_lo"], r["ref_hi"]) + f" ({r['ref_seeds']})",
-                    _interval(r["diff"], r["diff_lo"], r["diff_hi"]),
-                    "**differs**" if r["verdict"] == "differs" else "agrees",
-                ]
-            )
-        )
-    agree = int((comparison["verdict"] == "agrees").sum())
-    lines += [
-        "",
-        f"{agree} of {len(comparison)} rows agree. IQM of normalized returns over seeds (seed"
-        " count in parentheses), both"
-        " normalized with the reference's random and expert returns; a row differs when the 95%"
-        " bootstrap CI of the IQM difference excludes 0.",
-    ]
-    return "\n".join(lines) + "\n"
-
-
-def _seen(df: pd.DataFrame, env_id: str) -> str:
-    """ ", from pixels" where the env's learners observed frames (`observation: pixels`)."""
-    seen = df.loc[df["env_id"] == env_id, "observation"]
-    return ", from pixels" if (seen == "pixels").any() else ""
-
-
-def _header(df: pd.DataFrame, results_dir: Path) -> str:
-    suites = ", ".join(sorted(map(str, df["suite"].unique())))
-    envs = labels.env_order(df["env_id"].unique())
-    learners = labels.algorithm_order(df["algorithm"].unique())
-    references = [a for a in (RANDOM, EXPERT) if a in set(df["algorithm"])]
-    ok = df[df["status"] == "ok"]
-    per_cell = ok.groupby(["env_id", "algorithm", "n_demos"]).size()
-    seeds = _range_text(per_cell) if len(per_cell) else "0"
-    failed = df[df["status"] != "ok"]
-    counts = [int(n) for n in sorted(df.loc[df["n_demos"] > 0, "n_demos"].unique())]
-    starred = labels.action_users(df)
-    label = lambda a: labels.algorithm_label(a, starred)  # noqa: E731
-    rows = [
-        ("suite", suites),
-        ("results", f"`{results_dir}`"),
-        ("envs", ", ".join(f"{labels.env_label(e)} (`{e}`{_seen(df, e)})" for e in envs)),
-        ("learners", ", ".join(map(label, learners)) or "none"),
-        ("references", ", ".join(map(label, references)) or "none"),
-        ("demonstrations", ", ".join(map(str, counts)) or "none"),
-        ("seeds per cell", f"{seeds} (ok trials per env, algorithm and demo count)"),
-        ("trials", f"{len(df)} ({len(failed)} failed)"),
-        ("env steps", f"{int(df['env_steps'].sum()):,} of training, summed over trials"),
-        ("wall time", f"{_duration(df['wall_time'].sum())} summed over trials"),
-    ]
-    lines = [f"# ifo-bench report: {suites}", "", "| | |", "|---|---|"]
-    lines += [_row(r) for r in rows]
-    if len(failed):
-        lines += ["", "Failed trials, left out of every statistic:", ""]
-        lines += [
-            f"- {labels.env_label(r.env_id)}, {label(r.algorithm)}, "
-            f"{labels.demos_label(r.n_demos, 'demonstration')}, seed {r.seed}"
-            for r in failed.head(MAX_LISTED).itertuples()
-        ]
-        if len(failed) > MAX_LISTED:
-            lines.append(f"- and {len(failed) - MAX_LISTED} more (status in the records)")
-    return "\n".join(lines)
-
-
-def _how_to_read(learners: Sequence[str], reps: int, action_users: Collection[str]) -> str:
-    items = [
-        "**Normalized score**: per env, 0 is the mean return of the random policy and 1 that of "
-        "the expert that recorded the demonstrations (raw returns in the last section), so envs "
-        "can be pooled. Scores below 0 or above 1 are possible.",
-        "**Run**: one seed on one env. For each number of demonstrations, the runs of all envs "
-        "are pooled into three aggregates: mean, median and IQM.",
-        "**IQM** (interquartile mean): the mean of the middle 50% of runs. Less thrown by "
-        "outliers than the mean and less noisy than the median: read it first.",
-        "**[lo, hi]**: a 95% confidence interval, from a stratified bootstrap over seeds "
-        f"({reps} resamples). Few seeds make it wide; with one seed it shrinks to a point, "
-        "which means unknown, not certain.",
-        "**Probability of improvement** P(GAIfO > X): the chance that a run of GAIfO scores "
-        "higher than a run of X on the same env, averaged over envs. 0.5 is a tie; an interval "
-        "that excludes 0.5 is a difference the seeds support.",
-        "**Performance profile**: for each score τ, the fraction of runs scoring above τ. A "
-        "curve that lies above another is better at every level.",
-        "**Learning curves**: the IQM over seeds at each evaluation during training, with its "
-        "95% CI as a band.",
-    ]
-    if "survival" in learners:
-        items.append(
-            "**Survival** is a control: it gets no demonstrations and is rewarded +1 per step "
-            "alive, so the same runs appear at every demonstration count. A learner that does "
-            "not beat it has not shown that it learned from the demonstrations."
-        )
-    if ORACLE in learners:
-        items.append(
-            "**Oracle** is the upper control: the imitators' optimizer with their settings, "
-            "trained on the env's own reward, no demonstrations. It is drawn as a line, not a bar. "
-            "A learner's IQM as a fraction of the oracle's (per env) says how much of what the "
-            "optimizer reaches at this budget the imitation reaches; the gap from the oracle to "
-            "the expert is the optimizer's."
-        )
-    if set(action_users) & set(learners):
-        items.append(
-            "**\\*** marks algorithms that see the expert's actions, which imitation from "
-            "observation does not."
-        )
-    return (
-        "## How to read this report\n\n"
-        + "\n".join(f"- {item}" for item in items)
-        + "\n\nStatistics follow Agarwal et al., *Deep Reinforcement Learning at the Edge of "
-        "the Statistical Precipice* (NeurIPS 2021), computed with their library, rliable."
-    )
-
-
-def _at_a_glance(
-    aggregates: pd.DataFrame, improvement: pd.DataFrame, action_users: Collection[str]
-) -> str:
-    """IQM of every learner, and GAIfO's probability of improvement, across demo counts."""
-    if aggregates.empty:
-        return ""
-    counts = sorted(aggregates["n_demos"].unique())
-    columns = [labels.demos_label(n) for n in counts]
-    rule = "|" + "---|" * (1 + len(counts))
-    lines = ["## At a glance", "", _row(["IQM [95% CI]", *columns]), rule]
-    iqm = aggregates[aggregates["metric"] == "iqm"].set_index(["algorithm", "n_demos"])
-    for a in labels.in_order(aggregates["algorithm"]):
-        cells = [
-            _interval(*iqm.loc[(a, n), ["estimate", "lo", "hi"]]) if (a, n) in iqm.index else ""
-            for n in counts
-        ]
-        lines.append(_row([labels.algorithm_label(a, action_users), *cells]))
-    if len(improvement):
-        pi = improvement.set_index(["algorithm", "other", "n_demos"])
-        lines += ["", _row(["P(improvement) [95% CI]", *columns]), rule]
-        pairs = dict.fromkeys(zip(improvement["algorithm"], improvement["other"], strict=True))
-        for a, b in pairs:
-            cells = [
-                _interval(*pi.loc[(a, b, n), ["estimate", "lo", "hi"]])
-                if (a, b, n) in pi.index
-                else ""
-                for n in counts
-            ]
-            lines.append(_row([_pair_label(a, b, action_users), *cells]))
-    return "\n".join(lines)
-
-
-def _references(df: pd.DataFrame) -> str:
-    refs = df[(df["status"] == "ok") & df["algorithm"].isin([RANDOM, EXPERT])]
-    summary = refs.groupby(["env_id", "algorithm"])["return"].agg(["mean", "std", "size"])
-    lines = [
-        "## Reference returns",
-        "",
-        "Raw undiscounted return of the references, mean ± standard deviation over seeds "
-        "(each seed's return is itself a mean over evaluation episodes): "
-        "the 0 and 1 of every normalized score.",
-        "",
-        "| env | random | expert |",
-        "|---|---|---|",
-    ]
-    for env_id in labels.env_order(df["env_id"].unique()):
-        cells = []
-        for a in (RANDOM, EXPERT):
-            if (env_id, a) not in summary.index:
-                cells.append("")
-                continue
-            r = summary.loc[(env_id, a)]
-            seeds = f"{int(r['size'])} seed" + ("s" if r["size"] != 1 else "")
-            spread = "" if pd.isna(r["std"]) else f" ± {r['std']:.1f}"
-            cells.append(f"{r['mean']:.1f}{spread} ({seeds})")
-        lines.append(_row([labels.env_label(env_id), *cells]))
-    return "\n".join(lines)
-
-
-def _costs(df: pd.DataFrame) -> str:
-    """Measured cost per trial, to size a bigger run (e.g. on a cluster) before starting it."""
-    ok = df[df["status"] == "ok"]
-    lines = [
-        "## Cost per trial",
-        "",
-        "Wall time of one trial on one core (training and every evaluation), mean over its "
-        "trials; a trial never uses more than one core. Total core-hours of a bigger run = "
-        "trials x wall time.",
-        "",
-        "| env | algorithm | budget (env steps) | trials | wall time per trial | core-hours |",
-        "|---|---|---:|---:|---:|---:|",
-    ]
-    starred = labels.action_users(df)
-    for env_id in labels.env_order(ok["env_id"].unique()):
-        rows = ok[ok["env_id"] == env_id]
-        for algorithm in labels.in_order(rows["algorithm"]):
-            cell = rows[rows["algorithm"] == algorithm]
-            budget = ", ".join(f"{b:,}" for b in sorted(cell["budget"].unique()))
-            lines.append(
-                _row(
-                    [
-                        labels.env_label(env_id),
-                        labels.algorithm_label(algorithm, starred),
-                        budget,
-                        len(cell),
-                        _duration(cell["wall_time"].mean()),
-                        f"{cell['wall_time'].sum() / 3600:.2f}",
-                    ]
-                )
-            )
-    return "\n".join(lines)
-
-
 def _demo_section(
     df: pd.DataFrame, curves: pd.DataFrame | str, n: int, out_dir: Path, reps: int
 ) -> tuple[str, pd.DataFrame, pd.DataFrame]:
     """Markdown for one demo count, and its aggregate and improvement rows."""
-    title = _demos_title(n)
+    title = markdown.demos_title(n)
     parts = [f"## {title}"]
     names = comparisons.competitors(df, n)
     starred = labels.action_users(df)
@@ -471,7 +200,7 @@ def _demo_section(
         parts += [
             "### Aggregate normalized score",
             f"{pooled}; brackets are 95% bootstrap CIs.",
-            aggregate_table(aggregate, starred),
+            markdown.aggregate_table(aggregate, starred),
         ]
         parts.append("### Probability of improvement")
         if TARGET not in counted.scores:
@@ -479,7 +208,7 @@ def _demo_section(
                 f"{labels.algorithm_label(TARGET, starred)} has no scores with {title.lower()}."
             )
         if len(improvement):
-            parts.append(improvement_table(improvement, starred))
+            parts.append(markdown.improvement_table(improvement, starred))
         else:
             parts.append(
                 "Nothing to compare: no second learner to set against GAIfO or the control."
@@ -533,10 +262,10 @@ def _per_env_section(
     iqm = frame[frame["statistic"] == "iqm"]
     improved = frame[frame["statistic"] == "p_improvement"]
     lines = [
-        f"## Per env, {_demos_title(n).lower()}",
+        f"## Per env, {markdown.demos_title(n).lower()}",
         "Each env's IQM over its seeds and the probabilities of improvement on that env alone"
         " (every seed an env has; the pooled column keeps the seeds every env has, as above).",
-        _env_table(
+        markdown.env_table(
             iqm,
             "IQM [95% CI] (seeds)",
             {
@@ -548,8 +277,8 @@ def _per_env_section(
     ]
     if len(improved):
         pairs = dict.fromkeys(zip(improved["algorithm"], improved["other"], strict=True))
-        keys = {_pair_label(a, b, starred): (a, b) for a, b in pairs}
-        lines.append(_env_table(improved, "P(improvement) [95% CI]", keys, columns))
+        keys = {markdown.pair_label(a, b, starred): (a, b) for a, b in pairs}
+        lines.append(markdown.env_table(improved, "P(improvement) [95% CI]", keys, columns))
     fractions = frame[frame["statistic"] == "of_oracle"]
     if len(fractions):
         pairs = dict.fromkeys(zip(fractions["algorithm"], fractions["other"], strict=True))
@@ -557,29 +286,8 @@ def _per_env_section(
             f"{labels.algorithm_label(a, starred)} / {labels.algorithm_label(b)}": (a, b)
             for a, b in pairs
         }
-        lines.append(_env_table(fractions, "IQM / oracle's IQM [95% CI]", keys, columns))
+        lines.append(markdown.env_table(fractions, "IQM / oracle's IQM [95% CI]", keys, columns))
     return "\n\n".join(lines), frame
-
-
-def _env_table(
-    rows: pd.DataFrame, title: str, keys: dict[str, tuple[str, str]], columns: list[str]
-) -> str:
-    """Markdown: a row per label of `keys` (its algorithm and other), a column per env id of
-    `columns`, each cell `estimate [lo, hi]` (and the seed count of an env's IQM)."""
-    cells = rows.set_index(["algorithm", "other", "env_id"])
-    header = [title, *(e if e == POOLED else labels.env_label(e) for e in columns)]
-    lines = [_row(header), "|" + "---|" * len(header)]
-    for label, (a, b) in keys.items():
-        values = []
-        for env_id in columns:
-            if (a, b, env_id) not in cells.index:
-                values.append("")
-                continue
-            r = cells.loc[(a, b, env_id)]
-            seeds = f" ({r['seeds']})" if not b and env_id != POOLED else ""
-            values.append(_interval(r["estimate"], r["lo"], r["hi"]) + seeds)
-        lines.append(_row([label, *values]))
-    return "\n".join(lines)
 
 
 def _state_match_section(
@@ -592,21 +300,21 @@ def _state_match_section(
         return "", pd.DataFrame()
     target = labels.algorithm_label(TARGET, starred)
     header = ["algorithm", "runs", "IQM distance [95% CI]", f"P({target} closer) [95% CI]"]
-    lines = [_row(header), "|---|---|---|---|"]
+    lines = [markdown.row(header), "|---|---|---|---|"]
     for r in rows.itertuples():
-        p_closer = "" if pd.isna(r.p_closer) else _interval(r.p_closer, r.p_lo, r.p_hi)
+        p_closer = "" if pd.isna(r.p_closer) else markdown.interval(r.p_closer, r.p_lo, r.p_hi)
         lines.append(
-            _row(
+            markdown.row(
                 [
                     labels.algorithm_label(r.algorithm, starred),
                     r.runs,
-                    _interval(r.iqm, r.lo, r.hi),
+                    markdown.interval(r.iqm, r.lo, r.hi),
                     p_closer,
                 ]
             )
         )
     text = (
-        f"## Distance to the expert's states, {_demos_title(n).lower()}\n\n"
+        f"## Distance to the expert's states, {markdown.demos_title(n).lower()}\n\n"
         "How far the states a policy visits in its evaluation episodes lie from the expert's "
         "(bench.state_match: per-dimension 1-Wasserstein distance in units of the expert's "
         "spread, averaged over dimensions; 0 = distributed alike, lower is closer). It sees "
@@ -655,28 +363,3 @@ def _concat(frames: list[pd.DataFrame], columns: list[str]) -> pd.DataFrame:
     return (
         pd.concat(frames, ignore_index=True)[columns] if frames else pd.DataFrame(columns=columns)
     )
-
-
-def _interval(estimate: float, lo: float, hi: float) -> str:
-    return f"{estimate:.2f} [{lo:.2f}, {hi:.2f}]"
-
-
-def _row(cells: Sequence[object]) -> str:
-    return "| " + " | ".join(map(str, cells)) + " |"
-
-
-def _demos_title(n: int) -> str:
-    return labels.demos_label(n, "demonstration").capitalize()
-
-
-def _range_text(values: pd.Series) -> str:
-    lo, hi = int(values.min()), int(values.max())
-    return str(lo) if lo == hi else f"{lo}–{hi}"
-
-
-def _duration(seconds: float) -> str:
-    if not math.isfinite(seconds) or seconds < 120:
-        return f"{seconds:.0f} s"
-    if seconds < 2 * 3600:
-        return f"{seconds / 60:.0f} min"
-    return f"{seconds / 3600:.1f} h"

@@ -49,13 +49,13 @@ def _report(args: argparse.Namespace) -> int:
 
 
 def _compare(args: argparse.Namespace) -> int:
-    from bench import labels, normalize, report, stats
+    from bench import labels, markdown, normalize, stats
 
     run, ref = (_one_suite(args.run), _one_suite(args.reference))
     run_df, ref_df = normalize.normalized_alike(run, ref)
     comparison = stats.compare(run_df, ref_df, reps=args.reps)
     starred = labels.action_users(run_df) | labels.action_users(ref_df)
-    print(report.compare_table(comparison, str(args.run), str(args.reference), starred))
+    print(markdown.compare_table(comparison, str(args.run), str(args.reference), starred))
     return 0
 
 

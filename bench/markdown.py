@@ -1,0 +1,327 @@
+"""The report's parts as markdown: tables from the statistics' frames, and the sections that
+explain them. Pure text: nothing here computes a statistic (`bench.comparisons`) or draws
+(`bench.plot`)."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Collection, Sequence
+from pathlib import Path
+
+import pandas as pd
+
+from bench import labels
+from bench.comparisons import POOLED
+from bench.normalize import EXPERT, ORACLE, RANDOM
+
+MAX_LISTED = 20
+"""Failed trials named one by one in the header; the rest are counted."""
+METRIC_LABELS = {"mean": "mean", "median": "median", "iqm": "IQM"}
+
+
+def aggregate_table(aggregates: pd.DataFrame, action_users: Collection[str] = ()) -> str:
+    """Markdown: a row per algorithm, a column per metric, each `estimate [lo, hi]`.
+
+    `aggregates`: stats.aggregate_scores rows of one demo count, plus seeds and envs columns.
+    """
+    metrics = [m for m in METRIC_LABELS if m in set(aggregates["metric"])]
+    header = ["algorithm", "runs (seeds × envs)"] + [
+        f"{METRIC_LABELS[m]} [95% CI]" for m in metrics
+    ]
+    lines = [row(header), "|" + "---|" * len(header)]
+    cells = aggregates.set_index(["algorithm", "metric"])
+    for a in labels.in_order(aggregates["algorithm"]):
+        first = cells.loc[(a, metrics[0])]
+        runs = f"{int(first['seeds'])} × {int(first['envs'])}"
+        values = [interval(*cells.loc[(a, m), ["estimate", "lo", "hi"]]) for m in metrics]
+        lines.append(row([labels.algorithm_label(a, action_users), runs, *values]))
+    return "\n".join(lines) + "\n"
+
+
+def improvement_table(improvement: pd.DataFrame, action_users: Collection[str] = ()) -> str:
+    """Markdown: P(a > b) [95% CI], a row per (algorithm, other) pair of `improvement`."""
+    lines = [row(["comparison", "P(improvement) [95% CI]"]), "|---|---|"]
+    for r in improvement.itertuples():
+        lines.append(
+            row([pair_label(r.algorithm, r.other, action_users), interval(r.estimate, r.lo, r.hi)])
+        )
+    return "\n".join(lines) + "\n"
+
+
+def pair_label(a: str, b: str, action_users: Collection[str]) -> str:
+    return f"{labels.algorithm_label(a, action_users)} > {labels.algorithm_label(b, action_users)}"
+
+
+def compare_table(
+    comparison: pd.DataFrame, run: str, reference: str, action_users: Collection[str] = ()
+) -> str:
+    """Markdown: per env, algorithm and demo count, IQM [95% CI] of the run and the reference,
+    their difference and the verdict (stats.compare); then how many rows agree."""
+    header = ["env", "algorithm", "demos", f"run ({run})", f"reference ({reference})"]
+    header += ["run - ref [95% CI]", "verdict"]
+    lines = [row(header), "|" + "---|" * len(header)]
+    envs, algorithms = (
+        labels.env_order(comparison["env_id"]),
+        labels.in_order(comparison["algorithm"]),
+    )
+    ordered = comparison.sort_values(
+        ["env_id", "algorithm", "n_demos"],
+        key=lambda col: (
+            col.map((envs if col.name == "env_id" else algorithms).index)
+            if col.name != "n_demos"
+            else col
+        ),
+    )
+    for _, r in ordered.iterrows():
+        lines.append(
+            row(
+                [
+                    labels.env_label(r["env_id"]),
+                    labels.algorithm_label(r["algorithm"], action_users),
+                    r["n_demos"],
+                    interval(r["run_iqm"], r["run_lo"], r["run_hi"]) + f" ({r['run_seeds']})",
+                    interval(r["ref_iqm"], r["ref_lo"], r["ref_hi"]) + f" ({r['ref_seeds']})",
+                    interval(r["diff"], r["diff_lo"], r["diff_hi"]),
+                    "**differs**" if r["verdict"] == "differs" else "agrees",
+                ]
+            )
+        )
+    agree = int((comparison["verdict"] == "agrees").sum())
+    lines += [
+        "",
+        f"{agree} of {len(comparison)} rows agree. IQM of normalized returns over seeds (seed"
+        " count in parentheses), both"
+        " normalized with the reference's random and expert returns; a row differs when the 95%"
+        " bootstrap CI of the IQM difference excludes 0.",
+    ]
+    return "\n".join(lines) + "\n"
+
+
+def seen(df: pd.DataFrame, env_id: str) -> str:
+    """ ", from pixels" where the env's learners observed frames (`observation: pixels`)."""
+    seen = df.loc[df["env_id"] == env_id, "observation"]
+    return ", from pixels" if (seen == "pixels").any() else ""
+
+
+def header(df: pd.DataFrame, results_dir: Path) -> str:
+    suites = ", ".join(sorted(map(str, df["suite"].unique())))
+    envs = labels.env_order(df["env_id"].unique())
+    learners = labels.algorithm_order(df["algorithm"].unique())
+    references = [a for a in (RANDOM, EXPERT) if a in set(df["algorithm"])]
+    ok = df[df["status"] == "ok"]
+    per_cell = ok.groupby(["env_id", "algorithm", "n_demos"]).size()
+    seeds = range_text(per_cell) if len(per_cell) else "0"
+    failed = df[df["status"] != "ok"]
+    counts = [int(n) for n in sorted(df.loc[df["n_demos"] > 0, "n_demos"].unique())]
+    starred = labels.action_users(df)
+    label = lambda a: labels.algorithm_label(a, starred)  # noqa: E731
+    rows = [
+        ("suite", suites),
+        ("results", f"`{results_dir}`"),
+        ("envs", ", ".join(f"{labels.env_label(e)} (`{e}`{seen(df, e)})" for e in envs)),
+        ("learners", ", ".join(map(label, learners)) or "none"),
+        ("references", ", ".join(map(label, references)) or "none"),
+        ("demonstrations", ", ".join(map(str, counts)) or "none"),
+        ("seeds per cell", f"{seeds} (ok trials per env, algorithm and demo count)"),
+        ("trials", f"{len(df)} ({len(failed)} failed)"),
+        ("env steps", f"{int(df['env_steps'].sum()):,} of training, summed over trials"),
+        ("wall time", f"{duration(df['wall_time'].sum())} summed over trials"),
+    ]
+    lines = [f"# ifo-bench report: {suites}", "", "| | |", "|---|---|"]
+    lines += [row(r) for r in rows]
+    if len(failed):
+        lines += ["", "Failed trials, left out of every statistic:", ""]
+        lines += [
+            f"- {labels.env_label(r.env_id)}, {label(r.algorithm)}, "
+            f"{labels.demos_label(r.n_demos, 'demonstration')}, seed {r.seed}"
+            for r in failed.head(MAX_LISTED).itertuples()
+        ]
+        if len(failed) > MAX_LISTED:
+            lines.append(f"- and {len(failed) - MAX_LISTED} more (status in the records)")
+    return "\n".join(lines)
+
+
+def how_to_read(learners: Sequence[str], reps: int, action_users: Collection[str]) -> str:
+    items = [
+        "**Normalized score**: per env, 0 is the mean return of the random policy and 1 that of "
+        "the expert that recorded the demonstrations (raw returns in the last section), so envs "
+        "can be pooled. Scores below 0 or above 1 are possible.",
+        "**Run**: one seed on one env. For each number of demonstrations, the runs of all envs "
+        "are pooled into three aggregates: mean, median and IQM.",
+        "**IQM** (interquartile mean): the mean of the middle 50% of runs. Less thrown by "
+        "outliers than the mean and less noisy than the median: read it first.",
+        "**[lo, hi]**: a 95% confidence interval, from a stratified bootstrap over seeds "
+        f"({reps} resamples). Few seeds make it wide; with one seed it shrinks to a point, "
+        "which means unknown, not certain.",
+        "**Probability of improvement** P(GAIfO > X): the chance that a run of GAIfO scores "
+        "higher than a run of X on the same env, averaged over envs. 0.5 is a tie; an interval "
+        "that excludes 0.5 is a difference the seeds support.",
+        "**Performance profile**: for each score τ, the fraction of runs scoring above τ. A "
+        "curve that lies above another is better at every level.",
+        "**Learning curves**: the IQM over seeds at each evaluation during training, with its "
+        "95% CI as a band.",
+    ]
+    if "survival" in learners:
+        items.append(
+            "**Survival** is a control: it gets no demonstrations and is rewarded +1 per step "
+            "alive, so the same runs appear at every demonstration count. A learner that does "
+            "not beat it has not shown that it learned from the demonstrations."
+        )
+    if ORACLE in learners:
+        items.append(
+            "**Oracle** is the upper control: the imitators' optimizer with their settings, "
+            "trained on the env's own reward, no demonstrations. It is drawn as a line, not a bar. "
+            "A learner's IQM as a fraction of the oracle's (per env) says how much of what the "
+            "optimizer reaches at this budget the imitation reaches; the gap from the oracle to "
+            "the expert is the optimizer's."
+        )
+    if set(action_users) & set(learners):
+        items.append(
+            "**\\*** marks algorithms that see the expert's actions, which imitation from "
+            "observation does not."
+        )
+    return (
+        "## How to read this report\n\n"
+        + "\n".join(f"- {item}" for item in items)
+        + "\n\nStatistics follow Agarwal et al., *Deep Reinforcement Learning at the Edge of "
+        "the Statistical Precipice* (NeurIPS 2021), computed with their library, rliable."
+    )
+
+
+def at_a_glance(
+    aggregates: pd.DataFrame, improvement: pd.DataFrame, action_users: Collection[str]
+) -> str:
+    """IQM of every learner, and GAIfO's probability of improvement, across demo counts."""
+    if aggregates.empty:
+        return ""
+    counts = sorted(aggregates["n_demos"].unique())
+    columns = [labels.demos_label(n) for n in counts]
+    rule = "|" + "---|" * (1 + len(counts))
+    lines = ["## At a glance", "", row(["IQM [95% CI]", *columns]), rule]
+    iqm = aggregates[aggregates["metric"] == "iqm"].set_index(["algorithm", "n_demos"])
+    for a in labels.in_order(aggregates["algorithm"]):
+        cells = [
+            interval(*iqm.loc[(a, n), ["estimate", "lo", "hi"]]) if (a, n) in iqm.index else ""
+            for n in counts
+        ]
+        lines.append(row([labels.algorithm_label(a, action_users), *cells]))
+    if len(improvement):
+        pi = improvement.set_index(["algorithm", "other", "n_demos"])
+        lines += ["", row(["P(improvement) [95% CI]", *columns]), rule]
+        pairs = dict.fromkeys(zip(improvement["algorithm"], improvement["other"], strict=True))
+        for a, b in pairs:
+            cells = [
+                interval(*pi.loc[(a, b, n), ["estimate", "lo", "hi"]])
+                if (a, b, n) in pi.index
+                else ""
+                for n in counts
+            ]
+            lines.append(row([pair_label(a, b, action_users), *cells]))
+    return "\n".join(lines)
+
+
+def references(df: pd.DataFrame) -> str:
+    refs = df[(df["status"] == "ok") & df["algorithm"].isin([RANDOM, EXPERT])]
+    summary = refs.groupby(["env_id", "algorithm"])["return"].agg(["mean", "std", "size"])
+    lines = [
+        "## Reference returns",
+        "",
+        "Raw undiscounted return of the references, mean ± standard deviation over seeds "
+        "(each seed's return is itself a mean over evaluation episodes): "
+        "the 0 and 1 of every normalized score.",
+        "",
+        "| env | random | expert |",
+        "|---|---|---|",
+    ]
+    for env_id in labels.env_order(df["env_id"].unique()):
+        cells = []
+        for a in (RANDOM, EXPERT):
+            if (env_id, a) not in summary.index:
+                cells.append("")
+                continue
+            r = summary.loc[(env_id, a)]
+            seeds = f"{int(r['size'])} seed" + ("s" if r["size"] != 1 else "")
+            spread = "" if pd.isna(r["std"]) else f" ± {r['std']:.1f}"
+            cells.append(f"{r['mean']:.1f}{spread} ({seeds})")
+        lines.append(row([labels.env_label(env_id), *cells]))
+    return "\n".join(lines)
+
+
+def costs(df: pd.DataFrame) -> str:
+    """Measured cost per trial, to size a bigger run (e.g. on a cluster) before starting it."""
+    ok = df[df["status"] == "ok"]
+    lines = [
+        "## Cost per trial",
+        "",
+        "Wall time of one trial on one core (training and every evaluation), mean over its "
+        "trials; a trial never uses more than one core. Total core-hours of a bigger run = "
+        "trials x wall time.",
+        "",
+        "| env | algorithm | budget (env steps) | trials | wall time per trial | core-hours |",
+        "|---|---|---:|---:|---:|---:|",
+    ]
+    starred = labels.action_users(df)
+    for env_id in labels.env_order(ok["env_id"].unique()):
+        rows = ok[ok["env_id"] == env_id]
+        for algorithm in labels.in_order(rows["algorithm"]):
+            cell = rows[rows["algorithm"] == algorithm]
+            budget = ", ".join(f"{b:,}" for b in sorted(cell["budget"].unique()))
+            lines.append(
+                row(
+                    [
+                        labels.env_label(env_id),
+                        labels.algorithm_label(algorithm, starred),
+                        budget,
+                        len(cell),
+                        duration(cell["wall_time"].mean()),
+                        f"{cell['wall_time'].sum() / 3600:.2f}",
+                    ]
+                )
+            )
+    return "\n".join(lines)
+
+
+def env_table(
+    rows: pd.DataFrame, title: str, keys: dict[str, tuple[str, str]], columns: list[str]
+) -> str:
+    """Markdown: a row per label of `keys` (its algorithm and other), a column per env id of
+    `columns`, each cell `estimate [lo, hi]` (and the seed count of an env's IQM)."""
+    cells = rows.set_index(["algorithm", "other", "env_id"])
+    header = [title, *(e if e == POOLED else labels.env_label(e) for e in columns)]
+    lines = [row(header), "|" + "---|" * len(header)]
+    for label, (a, b) in keys.items():
+        values = []
+        for env_id in columns:
+            if (a, b, env_id) not in cells.index:
+                values.append("")
+                continue
+            r = cells.loc[(a, b, env_id)]
+            seeds = f" ({r['seeds']})" if not b and env_id != POOLED else ""
+            values.append(interval(r["estimate"], r["lo"], r["hi"]) + seeds)
+        lines.append(row([label, *values]))
+    return "\n".join(lines)
+
+
+def interval(estimate: float, lo: float, hi: float) -> str:
+    return f"{estimate:.2f} [{lo:.2f}, {hi:.2f}]"
+
+
+def row(cells: Sequence[object]) -> str:
+    return "| " + " | ".join(map(str, cells)) + " |"
+
+
+def demos_title(n: int) -> str:
+    return labels.demos_label(n, "demonstration").capitalize()
+
+
+def range_text(values: pd.Series) -> str:
+    lo, hi = int(values.min()), int(values.max())
+    return str(lo) if lo == hi else f"{lo}–{hi}"
+
+
+def duration(seconds: float) -> str:
+    if not math.isfinite(seconds) or seconds < 120:
+        return f"{seconds:.0f} s"
+    if seconds < 2 * 3600:
+        return f"{seconds / 60:.0f} min"
+    return f"{seconds / 3600:.1f} h"
