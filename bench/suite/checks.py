@@ -1,0 +1,209 @@
+"""The checks a suite passes at load, one line each naming the key path, what was expected and
+what was found; and the look-ups that need the registry, env ids, experts and datasets."""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+from typing import Any
+
+from bench import registry
+from bench.suite.expand import _fields, _hyperparams, expand
+from bench.suite.types import (
+    AlgorithmEntry,
+    EnvSettings,
+    Suite,
+)
+
+
+class Invalid(Exception):
+    """One problem at one key path; load_suite adds the file name."""
+
+    def __init__(self, key: str, message: str) -> None:
+        super().__init__(f"{key}: {message}" if key else message)
+
+
+def check_budgets(suite: Suite) -> None:
+    """Each trial's budget covers what its algorithm needs before it can learn anything (one
+    TRPO batch, say), asked of the algorithm (`register(..., min_budget=)`): a trial that
+    cannot train is refused at load, not recorded as failed an hour into the run."""
+    for spec in expand(suite):
+        algo = registry.get(spec.algorithm)
+        if algo.min_budget is None:
+            continue
+        need = algo.min_budget(algo.make_config(spec.hyperparams))
+        if spec.budget < need:
+            raise Invalid(
+                f"envs.{spec.env_id}.budget",
+                f"{spec.budget} env steps are fewer than {spec.shown} needs to train ({need})",
+            )
+
+
+def check_video_learners(env: EnvSettings, algorithms: tuple) -> None:
+    """pixels: every algorithm learns from frames, except the expert, which acts on the
+    simulator state in either setting (its return is the task's, whatever the learners see).
+    video-reward: every algorithm given demonstrations can imitate video; the others act on
+    states as always."""
+    if env.observation == "pixels":
+        can = lambda a: a.pixels or a.inputs == "expert"  # noqa: E731
+        able = sorted(n for n, a in registry.all_algorithms().items() if a.pixels)
+        what = "learn from pixels"
+    else:
+        can = lambda a: a.video_reward or a.inputs not in ("states", "actions")  # noqa: E731
+        able = sorted(n for n, a in registry.all_algorithms().items() if a.video_reward)
+        what = "imitate video"
+    blind = [a.shown for a in algorithms if not can(registry.get(a.name))]
+    if blind:
+        raise Invalid(
+            f"envs.{env.env_id}.observation",
+            f"{', '.join(blind)} cannot {what} (those that can: {', '.join(able) or 'none'})",
+        )
+
+
+def check_dataset(env: EnvSettings, most_demos: int, algorithms: tuple) -> None:
+    """The dataset opens, comes from this env, has enough episodes, and has actions if an
+    algorithm needs them."""
+    from bench import minari_io
+
+    key = f"envs.{env.env_id}.dataset"
+    try:
+        dataset = minari_io.open_dataset(env.dataset)
+        minari_io.check_env(dataset, env.dataset, env.env_id)
+    except minari_io.DatasetError as e:
+        raise Invalid(key, str(e)) from None
+    if dataset.total_episodes < most_demos:
+        raise Invalid(
+            key,
+            f"{env.dataset} has {dataset.total_episodes} episodes, fewer than the"
+            f" {most_demos} demonstrations asked for",
+        )
+    needs_actions = [a.shown for a in algorithms if registry.get(a.name).inputs == "actions"]
+    if needs_actions and not minari_io.has_actions(dataset):
+        raise Invalid(
+            key,
+            f"{env.dataset} records no actions (NaN), which {', '.join(needs_actions)} needs;"
+            " imitation from observation algorithms run without them",
+        )
+
+
+def check_env_hyperparams(env: EnvSettings, algorithms: tuple[AlgorithmEntry, ...]) -> None:
+    """Each of the env's hyperparams is a setting of some algorithm of the suite, of its type:
+    a typo would otherwise reach no algorithm and change nothing, silently."""
+    key = f"envs.{env.env_id}.hyperparams"
+    configs = [_fields(registry.get(a.name).config) for a in algorithms]
+    for name, value in env.hyperparams.items():
+        having = [fields for fields in configs if name in fields]
+        if not having:
+            shown = ", ".join(sorted({a.shown for a in algorithms}))
+            raise Invalid(f"{key}.{name}", f"no algorithm of the suite has this setting ({shown})")
+        for fields in having:
+            check_types(fields, {name: value}, key)
+
+
+def check_env_settings(env: EnvSettings, algorithms: tuple[AlgorithmEntry, ...]) -> None:
+    """Each algorithm's config still builds with the env's settings under its own."""
+    for entry in algorithms:
+        try:
+            _hyperparams(env, entry)
+        except (TypeError, ValueError) as e:
+            where = f"envs.{env.env_id}.{'hyperparams' if env.hyperparams else 'trpo'}"
+            raise Invalid(where, f"{entry.shown}: {one_line(str(e))}") from None
+
+
+def check_plain(values: dict, key: str) -> None:
+    for name, value in values.items():
+        try:
+            json.dumps(value, allow_nan=False)  # they go into TrialSpec, which is hashed as JSON
+        except (TypeError, ValueError):
+            raise Invalid(
+                f"{key}.{name}",
+                f"expected a plain value (number, string, list), got {show(value)}",
+            ) from None
+
+
+def check_hyperparams(algo: registry.Algorithm, overrides: dict, key: str) -> None:
+    check_plain(overrides, key)
+    check_types(_fields(algo.config), overrides, key)
+    try:
+        algo.make_config(overrides)
+    except (TypeError, ValueError) as e:
+        raise Invalid(key, one_line(str(e))) from None
+
+
+def check_types(fields: dict[str, dataclasses.Field], values: dict, key: str) -> None:
+    """Each value has its field's scalar type (unknown names are make_config's to report)."""
+    for name, value in values.items():
+        expected = scalar_type(fields[name]) if name in fields else None
+        if expected is not None and not matches(value, expected):
+            raise Invalid(
+                f"{key}.{name}",
+                f"expected {expected.__name__}, got {show(value)}{number_hint(value)}",
+            )
+
+
+def scalar_type(f: dataclasses.Field) -> type | None:
+    """The type of a field's scalar default; YAML typos (1e-3 is a string) fail here, not mid-run."""
+    if f.default is dataclasses.MISSING:
+        return None
+    kind = type(f.default)
+    return kind if kind in (bool, int, float, str) else None
+
+
+def matches(value: Any, expected: type) -> bool:
+    if expected is float:
+        return is_int(value) or isinstance(value, float)
+    if expected is int:
+        return is_int(value)
+    return type(value) is expected
+
+
+def is_int(value: Any) -> bool:
+    return isinstance(value, int) and not isinstance(value, bool)  # True is an int in Python
+
+
+def integer(value: Any, key: str, lo: int, hi: int | None, what: str = "") -> int:
+    if not is_int(value) or value < lo or (hi is not None and value > hi):
+        if not what:
+            what = {0: "a non-negative integer", 1: "a positive integer"}.get(
+                lo, f"an integer >= {lo}"
+            )
+            what += f" <= {hi}" if hi is not None else ""
+        raise Invalid(key, f"expected {what}, got {show(value)}{number_hint(value)}")
+    return value
+
+
+def number_hint(value: Any) -> str:
+    """PyYAML reads 1e5 and 1e-3 as strings (YAML 1.1 wants a dot and a sign); say so."""
+    if not isinstance(value, str):
+        return ""
+    try:
+        number = float(value)
+    except ValueError:
+        return ""
+    plain = int(number) if number.is_integer() else number
+    return f" (YAML reads {value} as a string; write {plain})"
+
+
+def int_list(raw: Any, key: str, lo: int, hi: int | None) -> tuple[int, ...]:
+    if not isinstance(raw, list) or not raw:
+        raise Invalid(key, f"expected a non-empty list of integers, got {show(raw)}")
+    values = tuple(integer(v, f"{key}[{i}]", lo, hi) for i, v in enumerate(raw))
+    if len(set(values)) != len(values):
+        raise Invalid(key, f"expected distinct values, got {show(raw)}")
+    return values
+
+
+def check_keys(raw: dict, allowed: tuple[str, ...], where: str) -> None:
+    unknown = [k for k in raw if k not in allowed]
+    if unknown:
+        key = f"{where}.{unknown[0]}" if where else str(unknown[0])
+        raise Invalid(key, f"unknown key (expected one of {', '.join(allowed)})")
+
+
+def show(value: Any) -> str:
+    text = repr(value)  # repr escapes newlines, so messages stay on one line
+    return text if len(text) <= 60 else text[:57] + "..."
+
+
+def one_line(text: str) -> str:
+    return " ".join(text.split())

@@ -1,0 +1,110 @@
+"""A suite -> its trials: env x demo count x algorithm x seed, each config resolved (defaults,
+the env's settings, the entry's overrides) so that a trial's id hashes all of it."""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+from pathlib import Path
+from typing import Any
+
+from bench import registry
+from bench.rl.trpo import TRPOConfig
+from bench.suite.types import AlgorithmEntry, EnvSettings, Suite, SuiteError
+from bench.types import TrialSpec
+
+
+def expand(suite: Suite) -> list[TrialSpec]:
+    """All trials of a suite, in a fixed order.
+
+    Per env: the algorithms that take no demonstrations (once per seed, with
+    n_demos=0), then demo count x algorithm x seed for the others.
+    """
+    no_demos = [a for a in suite.algorithms if not a.uses_demos]
+    with_demos = [a for a in suite.algorithms if a.uses_demos]
+    specs = []
+    for env in suite.envs:
+        specs += [_spec(suite, env, a, 0, s) for a in no_demos for s in seeds_of(suite, env, a)]
+        specs += [
+            _spec(suite, env, a, n, s)
+            for n in suite.demos
+            for a in with_demos
+            for s in seeds_of(suite, env, a)
+        ]
+    return specs
+
+
+def seeds_of(suite: Suite, env: EnvSettings, algo: AlgorithmEntry) -> tuple[int, ...]:
+    """An entry's seeds on an env: the env's for it (by label, then by name), else the
+    entry's own, else the suite's."""
+    for name in (algo.shown, algo.name):
+        if name in env.seeds:
+            return env.seeds[name]
+    return algo.seeds or suite.seeds
+
+
+def select(
+    specs: list[TrialSpec],
+    source: str | Path,
+    env: list[str] | None = None,
+    algorithm: list[str] | None = None,
+) -> list[TrialSpec]:
+    """The trials of some envs and/or algorithms only (None: all); ids are unchanged.
+
+    A name the suite does not have raises SuiteError, so a typo never silently runs nothing.
+    """
+    names = {
+        "env_id": lambda s: {s.env_id},
+        "algorithm": lambda s: {s.algorithm, s.shown},  # a variant by label, or all by algorithm
+    }
+    for key, label, wanted in (("env_id", "envs", env), ("algorithm", "algorithms", algorithm)):
+        if wanted is None:
+            continue
+        have = sorted(set().union(*(names[key](s) for s in specs)))
+        for name in wanted:
+            if name not in have:
+                raise SuiteError(f"{source}: {name!r} is not one of the suite's {label}: {have}")
+        specs = [s for s in specs if names[key](s) & set(wanted)]
+    return specs
+
+
+def _spec(
+    suite: Suite, env: EnvSettings, algo: AlgorithmEntry, n_demos: int, seed: int
+) -> TrialSpec:
+    return TrialSpec(
+        suite=suite.name,
+        env_id=env.env_id,
+        algorithm=algo.name,
+        n_demos=n_demos,
+        seed=seed,
+        budget=env.budget,
+        eval_episodes=suite.eval_episodes,
+        hyperparams=_hyperparams(env, algo),
+        label=algo.label,
+        dataset=env.dataset,
+        observation=env.observation,
+        frame_size=env.frame_size,
+    )
+
+
+def _hyperparams(env: EnvSettings, algo: AlgorithmEntry) -> dict[str, Any]:
+    """The algorithm's resolved config on this env: its own, with the env's settings that apply
+    to it under its overrides (the env's TRPO settings if it is a TRPO learner, then the env's
+    hyperparams that its config has). A fresh dict: specs outlive the suite."""
+    algorithm = registry.get(algo.name)
+    from_env = {k: v for k, v in env.hyperparams.items() if k in _fields(algorithm.config)}
+    if env.trpo and issubclass(algorithm.config, TRPOConfig):
+        from_env = {**env.trpo, **from_env}
+    if not from_env:
+        return dict(algo.hyperparams)
+    return _resolve(algorithm, {**from_env, **algo.overrides})
+
+
+def _fields(config: type) -> dict[str, dataclasses.Field]:
+    """A config dataclass's fields by name."""
+    return {f.name: f for f in dataclasses.fields(config)}
+
+
+def _resolve(algo: registry.Algorithm, overrides: dict[str, Any]) -> dict[str, Any]:
+    # Specs carry the full resolved config, defaults included: a changed default is a new id.
+    return json.loads(json.dumps(dataclasses.asdict(algo.make_config(overrides))))
