@@ -144,7 +144,8 @@ def test_per_env_statistics_keep_every_seed_an_env_has(tmp_path):
     improved = rows[rows["statistic"] == "p_improvement"].set_index(
         ["env_id", "algorithm", "other"]
     )
-    for env_id in (*ENVS, comparisons.POOLED):  # every gail run beats every survival run, on each env
+    # every gail run beats every survival run, on each env
+    for env_id in (*ENVS, comparisons.POOLED):
         assert improved.loc[(env_id, "gail", "survival"), "estimate"] == 1.0
         assert improved.loc[(env_id, "gaifo", "gail"), "estimate"] == 1.0
 
