@@ -17,7 +17,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-from PIL import Image, ImageDraw
+from PIL import Image, ImageDraw, ImageFont
 
 from bench import envs, experts, labels, policies, store
 from bench.normalize import ORACLE, REFERENCES, normalize
@@ -29,6 +29,7 @@ from bench.types import TrialSpec
 
 TITLE_HEIGHT = 22
 """Pixels above each panel for its title."""
+FONT = ImageFont.load_default(size=14)
 
 
 class VideoError(ValueError):
@@ -139,7 +140,7 @@ def compose(titles: list[str], films: list[list[np.ndarray]]) -> list[np.ndarray
     headers = []
     for title, film in zip(titles, films, strict=True):
         header = Image.new("RGB", (film[0].shape[1], TITLE_HEIGHT), "white")
-        ImageDraw.Draw(header).text((4, 5), title, fill="black")
+        ImageDraw.Draw(header).text((4, 3), title, fill="black", font=FONT)
         headers.append(np.asarray(header))
     return [
         np.concatenate(
