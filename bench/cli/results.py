@@ -96,13 +96,7 @@ def add(sub: argparse._SubParsersAction) -> None:
         type=folder,
         help="report folder (default <suite dir>/report; one per suite)",
     )
-    rep.add_argument(
-        "--reps",
-        type=at_least(1),
-        default=2000,
-        metavar="N",
-        help="bootstrap resamples per interval (default 2000)",
-    )
+    _reps(rep)
     rep.set_defaults(func=_report)
 
     cmp = sub.add_parser(
@@ -113,11 +107,16 @@ def add(sub: argparse._SubParsersAction) -> None:
     )
     cmp.add_argument("run", help="a suite's results folder, e.g. runs/quick")
     cmp.add_argument("reference", help="the folder to compare against, e.g. results/quick")
-    cmp.add_argument(
+    _reps(cmp)
+    cmp.set_defaults(func=_compare)
+
+
+def _reps(parser: argparse.ArgumentParser) -> None:
+    """--reps: bootstrap resamples behind every interval (report and compare alike)."""
+    parser.add_argument(
         "--reps",
         type=at_least(1),
         default=2000,
         metavar="N",
-        help="bootstrap resamples (default 2000)",
+        help="bootstrap resamples per interval (default 2000)",
     )
-    cmp.set_defaults(func=_compare)
