@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import importlib.util
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -20,6 +21,10 @@ def _video(args: argparse.Namespace) -> int:
         raise FileNotFoundError(f"{args.results}: no trial records (no trials/ folder)")
     if args.out.suffix not in (".gif", ".mp4"):
         raise VideoError(f"video: --out must end in .gif or .mp4, not {args.out.name!r}")
+    if args.out.suffix == ".mp4" and importlib.util.find_spec("imageio_ffmpeg") is None:
+        raise VideoError(
+            "video: an .mp4 needs imageio-ffmpeg (pip install 'ifo-bench[video]'); a .gif does not"
+        )
     if args.out.is_dir():
         raise VideoError(f"video: --out {args.out} is a folder")
     out, titles = video(
