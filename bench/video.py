@@ -40,6 +40,8 @@ class VideoError(ValueError):
 class Panel:
     title: str
     policy: Policy
+    env_id: str
+    """The env it is filmed in (the folder's env that `panels` chose)."""
     spec: TrialSpec | None = None
     """The learner's trial (None: the shipped expert)."""
 
@@ -82,7 +84,7 @@ def panels(
                 f"no {', '.join(unknown)} with seed {seed} on {env_id} (have: {', '.join(names)})"
             )
         names = [a for a in names if a in algorithms]
-    result = [Panel("Expert 1.00", experts.load_expert(env_id))]
+    result = [Panel("Expert 1.00", experts.load_expert(env_id), env_id)]
     for name in names:
         row = rows[rows["algorithm"] == name].iloc[0]
         file = policies.path(results_dir, row["trial_id"])
@@ -92,7 +94,7 @@ def panels(
             )
         spec = store.read(store.record_path(results_dir, row["trial_id"])).spec
         label = labels.algorithm_label(name) + (" (true reward)" if row["method"] == ORACLE else "")
-        result.append(Panel(f"{label} {row['normalized']:.2f}", policies.load(file), spec))
+        result.append(Panel(f"{label} {row['normalized']:.2f}", policies.load(file), env_id, spec))
     return result
 
 
@@ -179,7 +181,6 @@ def video(
     `episode_seed` resets every panel's env alike (default: the first evaluation episode of
     seed 0, as the runner scored it)."""
     chosen = panels(results_dir, env_id, algorithms, n_demos, seed)
-    env_id = env_id or store.load(results_dir)["env_id"].iloc[0]
-    films = [rollout(p, env_id, size, steps, episode_seed) for p in chosen]
+    films = [rollout(p, p.env_id, size, steps, episode_seed) for p in chosen]
     titles = [p.title for p in chosen]
     return write(compose(titles, films), out, fps), titles
