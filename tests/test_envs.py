@@ -26,6 +26,16 @@ def test_same_seed_same_rollout(env_id):
     assert not np.array_equal(a, rollout(env_id, 4))
 
 
+def test_bound_once_client_steps_like_the_librarys(monkeypatch):
+    """bench.envs keeps pybullet's client-bound functions instead of rebuilding them on every
+    look-up: a speed-up only, so the same seed gives the same trajectory, bit for bit."""
+    from pybullet_utils.bullet_client import BulletClient
+
+    fast = rollout("Walker2DBulletEnv-v0", 5, steps=300)
+    monkeypatch.setattr(BulletClient, "__getattr__", BulletClient.unbound_getattr)
+    np.testing.assert_array_equal(fast, rollout("Walker2DBulletEnv-v0", 5, steps=300))
+
+
 def test_unknown_env_is_one_clear_error():
     with pytest.raises(envs.EnvError, match="unknown env id 'NoSuchEnv-v0'"):
         envs.make("NoSuchEnv-v0", 0)
