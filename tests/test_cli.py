@@ -41,7 +41,7 @@ BAD_SUITES = {
     "yaml syntax": ("envs: [unclosed\n", "yaml"),
     "a string for a list": (
         GOOD.replace("[random, expert]", "[random, expert, {gaifo: {hidden: abc}}]"),
-        "hidden: input should be a valid array",
+        "hidden: expected a list",
     ),
     "a value out of range": (
         GOOD.replace("[random, expert]", "[random, expert, {gaifo: {disc_steps: -5}}]"),
@@ -53,7 +53,7 @@ BAD_SUITES = {
     ),
     "a bool for an int": (
         GOOD.replace("[random, expert]", "[random, expert, {survival: {n_envs: true}}]"),
-        "n_envs: expected int",
+        "n_envs: expected an integer",
     ),
 }
 

@@ -197,15 +197,15 @@ BAD = [
     (lambda r: _set(r, ("envs", PENDULUM, "steps"), 5), f"envs.{PENDULUM}.steps: unknown key"),
     (
         lambda r: _set(r, ("envs", PENDULUM, "budget"), "lots"),
-        f"envs.{PENDULUM}.budget: expected a positive integer, got 'lots'",
+        f"envs.{PENDULUM}.budget: expected an integer, got 'lots'",
     ),
     (
         lambda r: _set(r, ("envs", PENDULUM, "budget"), True),
-        f"envs.{PENDULUM}.budget: expected a positive integer, got True",
+        f"envs.{PENDULUM}.budget: expected an integer, got True",
     ),
     (
         lambda r: _set(r, ("envs", PENDULUM, "budget"), 0),
-        f"envs.{PENDULUM}.budget: expected a positive integer, got 0",
+        f"envs.{PENDULUM}.budget: expected a value >= 1, got 0",
     ),
     (
         lambda r: _set(r, ("envs", PENDULUM, "budget"), "1e5"),
@@ -213,26 +213,32 @@ BAD = [
     ),
     (lambda r: _set(r, ("envs", PENDULUM), {}), f"envs.{PENDULUM}.budget: missing"),
     (lambda r: _set(r, ("envs",), {}), "envs: expected a non-empty mapping"),
-    (lambda r: _set(r, ("envs",), [PENDULUM]), "envs: expected a non-empty mapping"),
-    (lambda r: _set(r, ("demos",), []), "demos: expected a non-empty list of integers, got []"),
-    (lambda r: _set(r, ("demos",), 5), "demos: expected a non-empty list of integers, got 5"),
+    (lambda r: _set(r, ("envs",), [PENDULUM]), "envs: expected a mapping, got ["),
+    (lambda r: _set(r, ("demos",), []), "demos: expected a non-empty list, got []"),
+    (lambda r: _set(r, ("demos",), 5), "demos: expected a list, got 5"),
     (
         lambda r: _set(r, ("demos",), [1, 26]),
-        "demos[1]: expected a positive integer <= 25, got 26",
+        "demos[1]: expected at most 25 (the shipped demonstrations), got 26",
     ),
-    (lambda r: _set(r, ("demos",), [0]), "demos[0]: expected a positive integer <= 25, got 0"),
+    (lambda r: _set(r, ("demos",), [0]), "demos[0]: expected a value >= 1, got 0"),
     (lambda r: _set(r, ("demos",), [5, 5]), "demos: expected distinct values, got [5, 5]"),
     (lambda r: _set(r, ("seeds",), True), "seeds: expected a seed count or a list of seeds"),
     (lambda r: _set(r, ("seeds",), 0), "seeds: expected a seed count or a list of seeds, got 0"),
-    (lambda r: _set(r, ("seeds",), [0, -1]), "seeds[1]: expected a non-negative integer"),
+    (lambda r: _set(r, ("seeds",), [0, -1]), "seeds[1]: expected a value >= 0, got -1"),
     (lambda r: _set(r, ("seeds",), []), "seeds: expected a non-empty list"),
-    (lambda r: _set(r, ("eval_episodes",), 2.5), "eval_episodes: expected a positive integer"),
-    (lambda r: _set(r, ("name",), "a/b"), "name: expected a folder name"),
+    (lambda r: _set(r, ("eval_episodes",), 2.5), "eval_episodes: expected an integer, got 2.5"),
+    (
+        lambda r: _set(r, ("name",), "a/b"),
+        "name: expected a name (letters, digits, . _ -), got 'a/b'",
+    ),
     (lambda r: _set(r, ("runner",), {"jobs": 0}), "runner.jobs: expected a positive integer or -1"),
-    (lambda r: _set(r, ("runner",), {"jobs": False}), "runner.jobs: expected a positive integer"),
+    (
+        lambda r: _set(r, ("runner",), {"jobs": False}),
+        "runner.jobs: expected an integer, got False",
+    ),
     (
         lambda r: _set(r, ("runner",), {"backend": "ray"}),
-        "runner.backend: expected one of loky, dask",
+        "runner.backend: expected one of loky or dask, got 'ray'",
     ),
     (lambda r: _set(r, ("runner",), {"workers": 2}), "runner.workers: unknown key"),
     (lambda r: _set(r, ("algorithms",), []), "algorithms: expected a non-empty list"),
@@ -245,15 +251,15 @@ BAD = [
     ),
     (
         lambda r: _set(r, ("algorithms", 2), {"ifo": {"lr": "1e-3"}}),
-        "algorithms[2].ifo.lr: expected float, got '1e-3' (YAML reads 1e-3 as a string; write 0.001)",
+        "algorithms[2].ifo.lr: expected a number, got '1e-3' (YAML reads 1e-3 as a string; write 0.001)",
     ),
     (
         lambda r: _set(r, ("algorithms", 2), {"ifo": {"steps": 1.5}}),
-        "algorithms[2].ifo.steps: expected int, got 1.5",
+        "algorithms[2].ifo.steps: expected an integer, got 1.5",
     ),
     (
         lambda r: _set(r, ("algorithms", 2), {"ifo": {"normalize": 1}}),
-        "algorithms[2].ifo.normalize: expected bool, got 1",
+        "algorithms[2].ifo.normalize: expected true or false, got 1",
     ),
     (lambda r: _set(r, ("algorithms", 2), {"ifo": [1]}), "algorithms[2].ifo: expected a mapping"),
     (
@@ -266,7 +272,7 @@ BAD = [
     ),
     (
         lambda r: _set(r, ("envs", PENDULUM, "observation"), "video"),
-        f"envs.{PENDULUM}.observation: expected one of states, pixels, video-reward, got 'video'",
+        f"envs.{PENDULUM}.observation: expected one of states, pixels or video-reward, got 'video'",
     ),
     (
         lambda r: _set(
@@ -292,7 +298,7 @@ BAD = [
         lambda r: _set(
             r, ("envs", PENDULUM), {"budget": 5, "observation": "pixels", "frame_size": 16}
         ),
-        f"envs.{PENDULUM}.frame_size: expected an integer >= 24 <= 256, got 16",
+        f"envs.{PENDULUM}.frame_size: expected a value >= 24, got 16",
     ),
     (
         lambda r: _set(r, ("envs", PENDULUM, "trpo"), {"nenvs": 16}),
@@ -304,11 +310,11 @@ BAD = [
     ),
     (
         lambda r: _set(r, ("envs", PENDULUM, "trpo"), {"n_envs": 1.5}),
-        f"envs.{PENDULUM}.trpo.n_envs: expected int, got 1.5",
+        f"envs.{PENDULUM}.trpo.n_envs: expected an integer, got 1.5",
     ),
     (
         lambda r: _set(r, ("envs", PENDULUM, "trpo"), 16),
-        f"envs.{PENDULUM}.trpo: expected a mapping like {{n_envs: 16}}, got 16",
+        f"envs.{PENDULUM}.trpo: expected a mapping, got 16",
     ),
     (
         lambda r: _set(r, ("envs", PENDULUM, "hyperparams"), {"lrr": 0.1}),
@@ -317,11 +323,11 @@ BAD = [
     ),
     (
         lambda r: _set(r, ("envs", PENDULUM, "hyperparams"), {"steps": "many"}),
-        f"envs.{PENDULUM}.hyperparams.steps: expected int, got 'many'",
+        f"envs.{PENDULUM}.hyperparams.steps: expected an integer, got 'many'",
     ),
     (
         lambda r: _set(r, ("envs", PENDULUM, "hyperparams"), [25]),
-        f"envs.{PENDULUM}.hyperparams: expected a mapping like {{disc_steps: 25}}, got [25]",
+        f"envs.{PENDULUM}.hyperparams: expected a mapping, got [25]",
     ),
 ]
 
@@ -432,7 +438,10 @@ def test_a_list_sweeps_and_labels_say_the_values(tmp_path, monkeypatch):
         ),
         ([{"algorithm": "ifo", "label": "a b"}], "algorithms[0].label: expected a name"),
         ([{"algorithm": "nope", "label": "a"}], "algorithms[0]: unknown algorithm"),
-        ([{"algorithm": "ifo", "label": "a", "lr": ["x"]}], "algorithms[0].ifo.lr: expected float"),
+        (
+            [{"algorithm": "ifo", "label": "a", "lr": ["x"]}],
+            "algorithms[0].ifo.lr: expected a number",
+        ),
     ],
 )
 def test_bad_variants_are_one_line_errors(tmp_path, entries, message):

@@ -5,15 +5,15 @@ from __future__ import annotations
 
 import dataclasses
 import json
-from typing import Any
 
-from bench import registry
+from bench import registry, validate
 from bench.suite.expand import _fields, _hyperparams, expand
 from bench.suite.types import (
     AlgorithmEntry,
     EnvSettings,
     Suite,
 )
+from bench.validate import show
 
 
 class Invalid(Exception):
@@ -90,14 +90,17 @@ def check_env_hyperparams(env: EnvSettings, algorithms: tuple[AlgorithmEntry, ..
     """Each of the env's hyperparams is a setting of some algorithm of the suite, of its type:
     a typo would otherwise reach no algorithm and change nothing, silently."""
     key = f"envs.{env.env_id}.hyperparams"
-    configs = [_fields(registry.get(a.name).config) for a in algorithms]
+    configs = [registry.get(a.name).config for a in algorithms]
     for name, value in env.hyperparams.items():
-        having = [fields for fields in configs if name in fields]
+        having = [config for config in configs if name in _fields(config)]
         if not having:
             shown = ", ".join(sorted({a.shown for a in algorithms}))
             raise Invalid(f"{key}.{name}", f"no algorithm of the suite has this setting ({shown})")
-        for fields in having:
-            check_types(fields, {name: value}, key)
+        for config in having:
+            try:
+                validate.check_types(config, {name: value})
+            except validate.SettingError as e:
+                raise Invalid(f"{key}.{e.field}", e.message) from None
 
 
 def check_env_settings(env: EnvSettings, algorithms: tuple[AlgorithmEntry, ...]) -> None:
@@ -123,22 +126,23 @@ def check_plain(values: dict, key: str) -> None:
 
 def check_hyperparams(algo: registry.Algorithm, overrides: dict, key: str) -> None:
     check_plain(overrides, key)
-    check_types(_fields(algo.config), overrides, key)
     try:
         algo.make_config(overrides)
+    except validate.SettingError as e:
+        raise Invalid(f"{key}.{e.field}" if e.field else key, e.message) from None
     except (TypeError, ValueError) as e:
         raise Invalid(key, one_line(str(e))) from None
 
 
-def check_types(fields: dict[str, dataclasses.Field], values: dict, key: str) -> None:
-    """Each value has its field's scalar type (unknown names are make_config's to report)."""
-    for name, value in values.items():
-        expected = scalar_type(fields[name]) if name in fields else None
-        if expected is not None and not matches(value, expected):
-            raise Invalid(
-                f"{key}.{name}",
-                f"expected {expected.__name__}, got {show(value)}{number_hint(value)}",
-            )
+def check_config(config: type, values: dict, key: str) -> None:
+    """`values` are settings of the dataclass `config`, of their types, and it builds."""
+    try:
+        validate.check_types(config, values)
+        config(**values)
+    except validate.SettingError as e:
+        raise Invalid(f"{key}.{e.field}" if e.field else key, e.message) from None
+    except (TypeError, ValueError) as e:
+        raise Invalid(key, one_line(str(e))) from None
 
 
 def scalar_type(f: dataclasses.Field) -> type | None:
@@ -147,62 +151,6 @@ def scalar_type(f: dataclasses.Field) -> type | None:
         return None
     kind = type(f.default)
     return kind if kind in (bool, int, float, str) else None
-
-
-def matches(value: Any, expected: type) -> bool:
-    if expected is float:
-        return is_int(value) or isinstance(value, float)
-    if expected is int:
-        return is_int(value)
-    return type(value) is expected
-
-
-def is_int(value: Any) -> bool:
-    return isinstance(value, int) and not isinstance(value, bool)  # True is an int in Python
-
-
-def integer(value: Any, key: str, lo: int, hi: int | None, what: str = "") -> int:
-    if not is_int(value) or value < lo or (hi is not None and value > hi):
-        if not what:
-            what = {0: "a non-negative integer", 1: "a positive integer"}.get(
-                lo, f"an integer >= {lo}"
-            )
-            what += f" <= {hi}" if hi is not None else ""
-        raise Invalid(key, f"expected {what}, got {show(value)}{number_hint(value)}")
-    return value
-
-
-def number_hint(value: Any) -> str:
-    """PyYAML reads 1e5 and 1e-3 as strings (YAML 1.1 wants a dot and a sign); say so."""
-    if not isinstance(value, str):
-        return ""
-    try:
-        number = float(value)
-    except ValueError:
-        return ""
-    plain = int(number) if number.is_integer() else number
-    return f" (YAML reads {value} as a string; write {plain})"
-
-
-def int_list(raw: Any, key: str, lo: int, hi: int | None) -> tuple[int, ...]:
-    if not isinstance(raw, list) or not raw:
-        raise Invalid(key, f"expected a non-empty list of integers, got {show(raw)}")
-    values = tuple(integer(v, f"{key}[{i}]", lo, hi) for i, v in enumerate(raw))
-    if len(set(values)) != len(values):
-        raise Invalid(key, f"expected distinct values, got {show(raw)}")
-    return values
-
-
-def check_keys(raw: dict, allowed: tuple[str, ...], where: str) -> None:
-    unknown = [k for k in raw if k not in allowed]
-    if unknown:
-        key = f"{where}.{unknown[0]}" if where else str(unknown[0])
-        raise Invalid(key, f"unknown key (expected one of {', '.join(allowed)})")
-
-
-def show(value: Any) -> str:
-    text = repr(value)  # repr escapes newlines, so messages stay on one line
-    return text if len(text) <= 60 else text[:57] + "..."
 
 
 def one_line(text: str) -> str:

@@ -16,7 +16,7 @@ from bench import paths, registry
 from bench.demos import POOL_SIZE as DEMO_POOL_SIZE
 from bench.envs import EnvError, check_env_id
 from bench.rl.trpo import TRPOConfig
-from bench.suite import checks
+from bench.suite import checks, schema
 from bench.suite.expand import _fields, _resolve
 from bench.suite.types import (
     AlgorithmEntry,
@@ -25,15 +25,7 @@ from bench.suite.types import (
     Suite,
     SuiteError,
 )
-
-_SUITE_KEYS = ("name", "envs", "demos", "algorithms", "seeds", "eval_episodes", "runner")
-_REQUIRED_KEYS = ("envs", "demos", "algorithms")
-_ENV_KEYS = ("budget", "dataset", "observation", "frame_size", "trpo", "hyperparams", "seeds")
-_OBSERVATIONS = ("states", "pixels", "video-reward")
-_RUNNER_KEYS = ("jobs", "backend")
-_BACKENDS = ("loky", "dask")
-_NAME_PATTERN = re.compile(r"[A-Za-z0-9][A-Za-z0-9._-]*")  # it becomes a folder name
-_LABEL_PATTERN = re.compile(r"[A-Za-z0-9][A-Za-z0-9._=,+\[\]-]*")  # as sweeps write them
+from bench.validate import show
 
 
 def load_suite(path: str | Path) -> Suite:
@@ -92,27 +84,26 @@ def _validate(raw: Any, path: Path) -> Suite:
 def _suite(raw: Any, default_name: str) -> Suite:
     if not isinstance(raw, dict):
         raise checks.Invalid(
-            "", f"expected a mapping with keys {', '.join(_REQUIRED_KEYS)}, got {checks.show(raw)}"
+            "", f"expected a mapping with keys envs, demos, algorithms, got {show(raw)}"
         )
-    checks.check_keys(raw, _SUITE_KEYS, "")
-    for key in _REQUIRED_KEYS:
-        if key not in raw:
-            raise checks.Invalid(key, "missing (required)")
-
-    name = raw.get("name", default_name)
-    if not isinstance(name, str) or not _NAME_PATTERN.fullmatch(name):
+    file = schema.parse(schema.SuiteFile, raw)
+    name = file.name or default_name
+    if not re.fullmatch(schema.NAME_PATTERN, name):
         raise checks.Invalid(
-            "name", f"expected a folder name (letters, digits, . _ -), got {checks.show(name)}"
+            "name", f"expected a folder name (letters, digits, . _ -), got {show(name)}"
         )
-
-    envs = _envs(raw["envs"])
+    envs = tuple(_env(env_id, settings) for env_id, settings in file.envs.items())
     # The shipped pools hold DEMO_POOL_SIZE episodes; a dataset is checked for its own count.
-    pooled = any(env.dataset is None for env in envs)
-    demos = checks.int_list(raw["demos"], "demos", 1, DEMO_POOL_SIZE if pooled else None)
-    seeds = _seeds(raw.get("seeds", 10))
-    eval_episodes = checks.integer(raw.get("eval_episodes", 10), "eval_episodes", 1, None)
-    runner = _runner(raw.get("runner", {}))
-    algorithms = _algorithms(raw["algorithms"])
+    if any(env.dataset is None for env in envs):
+        for i, n in enumerate(file.demos):
+            if n > DEMO_POOL_SIZE:
+                raise checks.Invalid(
+                    f"demos[{i}]",
+                    f"expected at most {DEMO_POOL_SIZE} (the shipped demonstrations), got {n}",
+                )
+    demos = tuple(file.demos)
+    runner = RunnerSettings(file.runner.jobs, file.runner.backend)
+    algorithms = _algorithms(file.algorithms)
 
     # Lookups last: they are the slow part and the structure is known good by now.
     for env in envs:
@@ -143,122 +134,32 @@ def _suite(raw: Any, default_name: str) -> Suite:
                 f"{', '.join(map(repr, unknown))} is no algorithm or label of the suite"
                 f" ({', '.join(sorted(names))})",
             )
-    suite = Suite(name, envs, demos, algorithms, seeds, eval_episodes, runner)
+    suite = Suite(name, envs, demos, algorithms, file.seeds, file.eval_episodes, runner)
     checks.check_budgets(suite)
     return suite
 
 
-def _envs(raw: Any) -> tuple[EnvSettings, ...]:
-    if not isinstance(raw, dict) or not raw:
-        raise checks.Invalid(
-            "envs",
-            f"expected a non-empty mapping of env id -> {{budget: ...}}, got {checks.show(raw)}",
-        )
-    envs = []
-    for env_id, settings in raw.items():
-        if not isinstance(env_id, str):
+def _env(env_id: str, settings: schema.EnvFile) -> EnvSettings:
+    key = f"envs.{env_id}"
+    for name in settings.trpo:
+        if name not in _fields(TRPOConfig):
             raise checks.Invalid(
-                "envs", f"expected env ids (strings) as keys, got {checks.show(env_id)}"
+                f"{key}.trpo.{name}",
+                f"not a TRPO setting (known: {', '.join(sorted(_fields(TRPOConfig)))})",
             )
-        key = f"envs.{env_id}"
-        if not isinstance(settings, dict):
-            raise checks.Invalid(
-                key, f"expected a mapping like {{budget: 100000}}, got {checks.show(settings)}"
-            )
-        checks.check_keys(settings, _ENV_KEYS, key)
-        if "budget" not in settings:
-            raise checks.Invalid(
-                f"{key}.budget", "missing (required: env steps per training trial)"
-            )
-        dataset = settings.get("dataset")
-        if dataset is not None and (not isinstance(dataset, str) or not dataset):
-            raise checks.Invalid(
-                f"{key}.dataset",
-                f"expected a dataset folder or Minari id, got {checks.show(dataset)}",
-            )
-        budget = checks.integer(settings["budget"], f"{key}.budget", 1, None)
-        observation = settings.get("observation", "states")
-        if observation not in _OBSERVATIONS:
-            raise checks.Invalid(
-                f"{key}.observation",
-                f"expected one of {', '.join(_OBSERVATIONS)}, got {checks.show(observation)}",
-            )
-        if observation != "states" and dataset is not None:
-            raise checks.Invalid(
-                f"{key}.observation",
-                f"{observation} needs video demonstrations; a dataset holds states",
-            )
-        frame_size = settings.get("frame_size")
-        if frame_size is not None:
-            if observation == "states":
-                raise checks.Invalid(
-                    f"{key}.frame_size", "only with observation: pixels or video-reward"
-                )
-            frame_size = checks.integer(
-                frame_size, f"{key}.frame_size", 24, 256
-            )  # the conv trunk needs 20+
-        seen = None if observation == "states" else observation
-        trpo = _trpo_settings(settings.get("trpo", {}), f"{key}.trpo")
-        hyperparams = _plain_mapping(settings.get("hyperparams", {}), f"{key}.hyperparams")
-        seeds = _plain_mapping(settings.get("seeds", {}), f"{key}.seeds")
-        seeds = {name: _seeds(value, f"{key}.seeds.{name}") for name, value in seeds.items()}
-        envs.append(
-            EnvSettings(env_id, budget, dataset, seen, frame_size, trpo, hyperparams, seeds)
-        )
-    return tuple(envs)
-
-
-def _trpo_settings(raw: Any, key: str) -> dict[str, Any]:
-    """An env's TRPOConfig overrides: known fields, values of the default's type."""
-    if not isinstance(raw, dict):
-        raise checks.Invalid(key, f"expected a mapping like {{n_envs: 16}}, got {checks.show(raw)}")
-    fields = _fields(TRPOConfig)
-    for name in raw:
-        if name not in fields:
-            raise checks.Invalid(
-                f"{key}.{name}", f"not a TRPO setting (known: {', '.join(sorted(fields))})"
-            )
-    checks.check_types(fields, raw, key)
-    try:
-        TRPOConfig(**raw)
-    except (TypeError, ValueError) as e:
-        raise checks.Invalid(key, checks.one_line(str(e))) from None
-    return dict(raw)
-
-
-def _plain_mapping(raw: Any, key: str) -> dict[str, Any]:
-    """A mapping of setting name -> plain (JSON) value, e.g. an env's hyperparams."""
-    if not isinstance(raw, dict):
-        raise checks.Invalid(
-            key, f"expected a mapping like {{disc_steps: 25}}, got {checks.show(raw)}"
-        )
-    checks.check_plain(raw, key)
-    return dict(raw)
-
-
-def _seeds(raw: Any, key: str = "seeds") -> tuple[int, ...]:
-    if isinstance(raw, list):
-        return checks.int_list(raw, key, 0, None)
-    return tuple(range(checks.integer(raw, key, 1, None, what="a seed count or a list of seeds")))
-
-
-def _runner(raw: Any) -> RunnerSettings:
-    if not isinstance(raw, dict):
-        raise checks.Invalid(
-            "runner", f"expected a mapping like {{jobs: 2, backend: loky}}, got {checks.show(raw)}"
-        )
-    checks.check_keys(raw, _RUNNER_KEYS, "runner")
-    jobs = raw.get("jobs", RunnerSettings.jobs)
-    if not checks.is_int(jobs) or (jobs < 1 and jobs != -1):
-        raise checks.Invalid(
-            "runner.jobs", f"expected a positive integer or -1 (all cores), got {checks.show(jobs)}"
-        )
-    backend = raw.get("backend", RunnerSettings.backend)
-    if backend not in _BACKENDS:
-        raise checks.Invalid(
-            "runner.backend", f"expected one of {', '.join(_BACKENDS)}, got {checks.show(backend)}"
-        )
-    return RunnerSettings(jobs, backend)
+    checks.check_config(TRPOConfig, settings.trpo, f"{key}.trpo")
+    checks.check_plain(settings.hyperparams, f"{key}.hyperparams")
+    seen = None if settings.observation == "states" else settings.observation
+    return EnvSettings(
+        env_id,
+        settings.budget,
+        settings.dataset,
+        seen,
+        settings.frame_size,
+        dict(settings.trpo),
+        dict(settings.hyperparams),
+        {name: tuple(seeds) for name, seeds in settings.seeds.items()},
+    )
 
 
 def _algorithms(raw: Any) -> tuple[AlgorithmEntry, ...]:
@@ -266,10 +167,6 @@ def _algorithms(raw: Any) -> tuple[AlgorithmEntry, ...]:
     seeds: 3, hyperparameter: value, ...}` (label and seeds optional). A list where a
     hyperparameter takes one value is a sweep: one variant per value (a grid over several
     lists)."""
-    if not isinstance(raw, list) or not raw:
-        raise checks.Invalid(
-            "algorithms", f"expected a non-empty list of names, got {checks.show(raw)}"
-        )
     entries: dict[str, AlgorithmEntry] = {}
     for i, item in enumerate(raw):
         key = f"algorithms[{i}]"
@@ -300,28 +197,14 @@ def _entry(item: Any, key: str) -> tuple[str, str | None, tuple[int, ...] | None
     """(algorithm name, label, seeds, hyperparameter overrides) of one `algorithms` item;
     label and seeds None unless given."""
     if isinstance(item, dict) and "algorithm" in item:
-        reserved = ("algorithm", "label", "seeds")
-        overrides = {k: v for k, v in item.items() if k not in reserved}
-        seeds = None
-        if "seeds" in item:
-            seeds = _seeds(item["seeds"], f"{key}.seeds")
-        name, label = item["algorithm"], item.get("label")
-        if not isinstance(name, str):
+        entry = schema.parse(schema.EntryFile, item, key)
+        if entry.label is not None and entry.label in registry.all_algorithms():
             raise checks.Invalid(
-                f"{key}.algorithm", f"expected an algorithm name, got {checks.show(name)}"
+                f"{key}.label", f"{entry.label!r} is an algorithm's name; pick another label"
             )
-        if label is not None and (
-            not isinstance(label, str) or not _LABEL_PATTERN.fullmatch(label)
-        ):
-            raise checks.Invalid(
-                f"{key}.label",
-                f"expected a name (letters, digits, . _ - = , + [ ]), got {checks.show(label)}",
-            )
-        if label is not None and label in registry.all_algorithms():
-            raise checks.Invalid(
-                f"{key}.label", f"{label!r} is an algorithm's name; pick another label"
-            )
-        return name, label, seeds, overrides
+        overrides = {k: v for k, v in item.items() if k not in schema.EntryFile.model_fields}
+        seeds = None if entry.seeds is None else tuple(entry.seeds)
+        return entry.algorithm, entry.label, seeds, overrides
     if isinstance(item, dict) and len(item) == 1:
         name, overrides = next(iter(item.items()))
         overrides = {} if overrides is None else overrides  # `- gaifo:` with nothing after
@@ -329,11 +212,11 @@ def _entry(item: Any, key: str) -> tuple[str, str | None, tuple[int, ...] | None
         name, overrides = item, {}
     if not isinstance(name, str):
         raise checks.Invalid(
-            key, f"expected a name or {{name: {{hyperparameter: value}}}}, got {checks.show(item)}"
+            key, f"expected a name or {{name: {{hyperparameter: value}}}}, got {show(item)}"
         )
     if not isinstance(overrides, dict):
         raise checks.Invalid(
-            f"{key}.{name}", f"expected a mapping of hyperparameters, got {checks.show(overrides)}"
+            f"{key}.{name}", f"expected a mapping of hyperparameters, got {show(overrides)}"
         )
     return name, None, None, overrides
 
@@ -359,7 +242,7 @@ def _variants(
     for k, values in swept.items():
         if len(values) != len({json.dumps(v) for v in values}):
             raise checks.Invalid(
-                f"{key}.{k}", f"expected distinct values to sweep, got {checks.show(values)}"
+                f"{key}.{k}", f"expected distinct values to sweep, got {show(values)}"
             )
     variants = []
     for point in itertools.product(*swept.values()):
