@@ -24,7 +24,7 @@ import torch
 import torch.nn.functional as F
 from torch import nn
 
-from algorithms.common import (
+from bench.learners import (
     ImitationTRPOConfig,
     PolicyAverage,
     report_each_update,

@@ -5,7 +5,7 @@ from __future__ import annotations
 import torch
 
 from algorithms.adversarial import AdversarialConfig, train_adversarial
-from algorithms.common import one_batch
+from bench.learners import one_batch
 from bench.registry import Logger, Policy, Task, register
 from bench.types import ActionDemos
 

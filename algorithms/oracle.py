@@ -8,7 +8,7 @@ is the optimizer's at this budget."""
 
 from __future__ import annotations
 
-from algorithms.common import ImitationTRPOConfig, one_batch, train_control
+from bench.learners import ImitationTRPOConfig, one_batch, trpo_on_reward
 from bench.registry import Logger, Policy, Task, register
 
 
@@ -24,4 +24,4 @@ def train(
     task: Task, demos: None, budget: int, seed: int, logger: Logger, config: ImitationTRPOConfig
 ) -> Policy:
     # reward_fn=None: the env's reward, what the expert was trained on
-    return train_control(task, budget, seed, logger, config, reward_fn=None)
+    return trpo_on_reward(task, budget, seed, logger, config, reward_fn=None)

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from algorithms.common import ImitationTRPOConfig, one_batch, train_control
+from bench.learners import ImitationTRPOConfig, one_batch, trpo_on_reward
 from bench.registry import Logger, Policy, Task, register
 
 
@@ -21,6 +21,6 @@ from bench.registry import Logger, Policy, Task, register
 def train(
     task: Task, demos: None, budget: int, seed: int, logger: Logger, config: ImitationTRPOConfig
 ) -> Policy:
-    return train_control(
+    return trpo_on_reward(
         task, budget, seed, logger, config, reward_fn=lambda b: np.ones_like(b.rewards)
     )

@@ -31,7 +31,7 @@ import torch
 import torch.nn.functional as F
 from torch import nn
 
-from algorithms.common import deterministic, one_batch, report_each_update
+from bench.learners import deterministic, one_batch, report_each_update
 from bench.registry import Logger, Policy, Task, register
 from bench.rl.networks import ObsShape, body, normalizer
 from bench.rl.rollout import Batch

@@ -96,7 +96,7 @@ def test_trial_id_covers_resolved_defaults(tmp_path):
 def test_the_controls_run_the_imitators_trpo_settings(tmp_path):
     """survival and oracle differ from GAIfO and GAIL only in their reward: same config class as
     their TRPO part, and a suite env's trpo: and hyperparams: settings reach all four alike."""
-    from algorithms.common import ImitationTRPOConfig
+    from bench.learners import ImitationTRPOConfig
     from bench.suite import expand, load_suite
 
     algos = registry.all_algorithms()

@@ -6,12 +6,8 @@ import argparse
 import os
 import sys
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 from bench.cli.args import folder, jobs_count
-
-if TYPE_CHECKING:
-    pass
 
 
 def _run(args: argparse.Namespace) -> int:

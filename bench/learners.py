@@ -1,5 +1,7 @@
-"""What the TRPO-based learners share: where their networks live, the policy the runner
-evaluates, and what they report after each update."""
+"""What an algorithm built on TRPO needs from the harness, built-in or plugin: the imitators'
+TRPO settings (extend `ImitationTRPOConfig` and the controls stay matched), the averaged
+policy the runner evaluates, the per-update report, and `trpo_on_reward`, which runs all of it
+on a reward of the algorithm's own (on the task's device, from states or frames alike)."""
 
 from __future__ import annotations
 
@@ -97,7 +99,7 @@ def report_each_update(
     return on_update
 
 
-def train_control(
+def trpo_on_reward(
     task: Task,
     budget: int,
     seed: int,
@@ -105,8 +107,9 @@ def train_control(
     config: ImitationTRPOConfig,
     reward_fn: RewardFn | None,
 ) -> DeterministicPolicy:
-    """A control: the imitators' TRPO, with their settings and their averaged policy, on
-    `reward_fn` (None: the env's own reward) instead of a reward learned from demonstrations."""
+    """The imitators' TRPO, with their settings and their averaged policy, on `reward_fn` (None:
+    the env's own reward, as the `oracle` control): what a learner with a reward of its own
+    needs, and what the controls run."""
     average = PolicyAverage(config.policy_average)
     learner = train(
         task.make_env,
