@@ -86,16 +86,22 @@ def test_the_controls_are_matched_and_every_off_policy_learner_runs(tmp_path):
     for name in ("gaifo-sac", "gail-sac"):
         assert issubclass(algos[name].config, offpolicy.OffPolicyConfig)
     tiny = "{hidden: [16, 16], learning_starts: 300, batch_size: 32}"
+    opolo = (
+        "{hidden: [16, 16], disc_hidden: [16, 16], learning_starts: 300, batch_size: 32,"
+        " inverse_pretrain: 20, train_every: 100}"
+    )
     (tmp_path / "s.yaml").write_text(
         f"name: sac\nenvs: {{{PENDULUM}: {{budget: 800}}}}\ndemos: [1]\nalgorithms: [random,"
         f" expert, gaifo-sac: {tiny}, gail-sac: {tiny}, survival-sac: {tiny},"
-        f" oracle-sac: {tiny}]\nseeds: 1\neval_episodes: 2\n"
+        f" oracle-sac: {tiny}, opolo: {opolo}]\nseeds: 1\neval_episodes: 2\n"
     )
     specs = expand(load_suite(tmp_path / "s.yaml"))
     assert run_suite(specs, tmp_path / "res", jobs=2, progress=False).failed == 0
     records = {r.spec.algorithm: r for r in store.scan(tmp_path / "res")}
-    assert all(r.env_steps == 800 for name, r in records.items() if name.endswith("-sac"))
+    learners = ("gaifo-sac", "gail-sac", "survival-sac", "oracle-sac", "opolo")
+    assert all(records[name].env_steps == 800 for name in learners)
     assert "disc_acc_expert" in records["gaifo-sac"].logs
+    assert {"disc_acc_expert", "inverse_loss", "inverse_gap"} <= set(records["opolo"].logs)
     # InvertedPendulum pays +1 per step alive: there the two controls are one learner
     assert records["oracle-sac"].returns == records["survival-sac"].returns
     from bench import policies
@@ -106,3 +112,42 @@ def test_the_controls_are_matched_and_every_off_policy_learner_runs(tmp_path):
     policy = policies.load(policies.path(tmp_path / "res", spec.trial_id))
     envs = [make_env(spec, EVAL_SEED + i, training=False) for i in range(2)]
     assert evaluate(policy, envs, 2, EVAL_SEED) == records["gaifo-sac"].returns
+
+
+def test_opolo_rewards_come_from_the_current_discriminator_and_its_dual_term_lowers_q(pendulum):
+    """OPOLO's reward is -log(1 - D) of D as it is now (D's training changes it), and the
+    critic's dual term pushes Q down at the policy's actions: with alpha > 0, Q there ends
+    lower than with alpha = 0, on the same data."""
+    from algorithms.opolo import OPOLO, OPOLOConfig
+    from bench import demos as demo_pool
+    from bench import envs
+    from bench.registry import Task
+    from bench.trial import demo_pool as pool_of
+
+    demos = demo_pool.load_demos(pool_of(pendulum, None), pendulum, 2, 0)
+    obs_dim, act_dim, low, high = envs.spaces(pendulum)
+    task = Task(pendulum, obs_dim, act_dim, low, high, lambda s: envs.make(pendulum, s))
+    cfg = OPOLOConfig(hidden=(16, 16), disc_hidden=(16, 16), batch_size=64, train_every=10**6)
+    learner = OPOLO(task, demos, cfg, seed=0)
+    rng = np.random.default_rng(0)
+    n = 512
+    obs = rng.normal(size=(n, task.obs_dim)).astype(np.float32)
+    acts = rng.uniform(-1, 1, size=(n, task.act_dim)).astype(np.float32)
+    steps = sac.transitions_of_step(obs, acts, obs + 0.1, np.zeros(n), np.zeros(n, bool), False)
+    learner.buffer.add(*steps)
+    batch = learner.buffer.sample(64)
+    before = learner.reward(batch)
+    learner.train_disc()
+    after = learner.reward(batch)
+    assert (before >= 0).all() and not torch.allclose(before, after)
+
+    def q_at_policy(alpha: float) -> float:
+        run = OPOLO(task, demos, OPOLOConfig(**{**vars(cfg), "alpha": alpha}), seed=0)
+        run.buffer = learner.buffer
+        for _ in range(50):
+            b = run.buffer.sample(64)
+            run.update(b, torch.zeros(64))
+        with torch.no_grad():
+            return torch.min(*run.critic(b.obs, run.actor.act(b.obs))).mean().item()
+
+    assert q_at_policy(10.0) < q_at_policy(0.0)

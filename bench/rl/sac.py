@@ -21,6 +21,7 @@ import copy
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Protocol
 
 import gymnasium as gym
 import numpy as np
@@ -252,6 +253,10 @@ class SAC:
         self.alpha_opt = torch.optim.Adam([self.log_alpha], lr=cfg.lr)
         self.buffer = ReplayBuffer(obs_dim, act_dim, cfg.buffer_size, seed)
 
+    def explore(self, obs: torch.Tensor) -> torch.Tensor:
+        """Actions to collect with: samples of the squashed Gaussian."""
+        return self.actor.sample(obs)[0]
+
     def update(self, batch: ReplayBatch, rewards: torch.Tensor) -> dict[str, float]:
         """One step of critics, actor and temperature on `batch` with `rewards` (B,)."""
         alpha = self.log_alpha.exp().detach()
@@ -291,6 +296,18 @@ class SAC:
         }
 
 
+class OffPolicyLearner(Protocol):
+    """What the loop needs of a learner: SAC, or another actor-critic built on its replay
+    (OPOLO's TD3, `algorithms.opolo`)."""
+
+    actor: Actor
+    buffer: ReplayBuffer
+
+    def explore(self, obs: torch.Tensor) -> torch.Tensor: ...
+
+    def update(self, batch: ReplayBatch, rewards: torch.Tensor) -> dict[str, float]: ...
+
+
 Callback = Callable[[int, SAC, dict[str, float]], None]
 """callback(env_steps_so_far, learner, last_update_info and seconds spent collecting and
 updating so far), every `report_every` env steps."""
@@ -304,10 +321,11 @@ def train(
     reward_fn: SACRewardFn | None = None,
     callback: Callback | None = None,
     report_every: int | None = None,
+    learner: OffPolicyLearner | None = None,
 ) -> SAC:
-    """Run SAC for `budget` env steps and return the learner. Without `reward_fn` it learns
-    from the env's reward (0 on the absorbing loop). `callback` runs every `report_every` env
-    steps (default: a twentieth of the budget, at most 5,000)."""
+    """Run SAC (or `learner`, built beforehand) for `budget` env steps and return the learner.
+    Without `reward_fn` it learns from the env's reward (0 on the absorbing loop). `callback`
+    runs every `report_every` env steps (default: a twentieth of the budget, at most 5,000)."""
     report_every = report_every or min(5_000, max(1, budget // 20))
     torch.set_num_threads(1)
     envs = [make_env(seed * 1000 + i) for i in range(cfg.n_envs)]
@@ -315,7 +333,7 @@ def train(
     low, high = space.low.astype(np.float32), space.high.astype(np.float32)
     obs = np.stack([env.reset(seed=seed * 1000 + i)[0] for i, env in enumerate(envs)])
     obs = obs.astype(np.float32).reshape(len(envs), -1)
-    learner = SAC(obs.shape[1], len(low), low, high, cfg, seed)
+    learner = learner or SAC(obs.shape[1], len(low), low, high, cfg, seed)
     buffer = learner.buffer
     rng = np.random.default_rng(seed)
     reward = reward_fn or (lambda batch: batch.env_rewards)
@@ -328,7 +346,7 @@ def train(
                 actions = rng.uniform(low, high, size=(len(envs), len(low))).astype(np.float32)
             else:
                 with torch.no_grad():
-                    actions = learner.actor.sample(torch.from_numpy(flagged(obs)))[0].numpy()
+                    actions = learner.explore(torch.from_numpy(flagged(obs))).numpy()
             before = obs.copy()
             next_obs = np.empty_like(obs)
             rewards = np.empty(len(envs), np.float32)
