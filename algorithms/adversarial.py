@@ -240,11 +240,10 @@ def train_adversarial(
     opt = torch.optim.Adam(disc.parameters(), lr=cfg.disc_lr)
     gen = torch.Generator().manual_seed(seed + 2)
     reward = REWARDS[cfg.reward]
-    stats: dict[str, float] = {}
     average = PolicyAverage(cfg.policy_average)
     absorbing_probe = to_device(absorbing.tails(np.zeros((1, seen_dim)), task.act_dim, cfg.gamma))
 
-    def reward_fn(batch: Batch) -> np.ndarray | Rewards:
+    def reward_fn(batch: Batch) -> Rewards:
         real = batch_transitions(batch, task)
         terminated = batch.flat("terminated")
         n_real, n_term = len(real), int(terminated.sum())
@@ -252,14 +251,14 @@ def train_adversarial(
         if cfg.absorbing and n_term:
             parts.append(absorbing.tails(real.next_obs[terminated], task.act_dim, cfg.gamma))
         policy_x = to_device(Transitions.concat(parts))
-        stats.update(discriminator_step(disc, opt, policy_x, expert_x, cfg, gen))
+        stats = discriminator_step(disc, opt, policy_x, expert_x, cfg, gen)
         with torch.no_grad():
             r = reward(disc(policy_x)).cpu().numpy()
         per_step = r[:n_real].reshape(batch.rewards.shape)
         stats["reward_mean"] = float(per_step.mean())
         stats["terminations"] = float(n_term)
         if not cfg.absorbing:
-            return per_step
+            return Rewards(per_step, logged=stats)
         # D's current reward for the absorbing loop, logged every update: in batches without
         # a termination D has no absorbing sample to train on, and what it makes of the state
         # then drifts; that drift is what a collapse after reaching the expert needs watching for.
@@ -269,14 +268,14 @@ def train_adversarial(
         if n_term:
             tail = absorbing.tail_rewards(r[n_real:], n_term)
             after[terminated] = absorbing.tail_value(tail, cfg.gamma)
-        return Rewards(per_step, after.reshape(batch.rewards.shape))
+        return Rewards(per_step, after.reshape(batch.rewards.shape), stats)
 
     train(
         task.make_env,
         budget,
         seed,
         reward_fn=reward_fn,
-        callback=report_each_update(task, logger, stats, average),
+        callback=report_each_update(task, logger, average),
         learner=learner,
     )
     return average.policy(learner, task)

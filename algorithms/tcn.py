@@ -34,7 +34,7 @@ from torch import nn
 from bench.learners import deterministic, one_batch, report_each_update
 from bench.registry import Logger, Policy, Task, register
 from bench.rl.networks import ObsShape, body, normalizer
-from bench.rl.rollout import Batch
+from bench.rl.rollout import Batch, Rewards
 from bench.rl.trpo import TRPO, TRPOConfig
 from bench.rl.trpo import train as trpo_train
 from bench.types import Demos
@@ -175,23 +175,22 @@ def train(
     targets = demo_targets(embed, demos)
     a, b, c = cfg.reward_alpha, cfg.reward_beta, cfg.reward_gamma
     offset = a * 4.0 + b * np.sqrt(c + 4.0) if cfg.nonnegative_reward else 0.0
-    stats: dict[str, float] = {}
 
     @torch.no_grad()
-    def reward_fn(batch: Batch) -> np.ndarray:
+    def reward_fn(batch: Batch) -> Rewards:
         e = embed(torch.from_numpy(batch.flat(judged)))
         t = torch.from_numpy(batch.flat("timesteps") + 1).clamp_max(len(targets) - 1)
         dist2 = (e - targets[t]).square().sum(1)
-        stats["embed_dist2"] = dist2.mean().item()
         r = offset - a * dist2 - b * torch.sqrt(c + dist2)
-        return r.numpy().reshape(batch.rewards.shape)
+        per_step = r.numpy().reshape(batch.rewards.shape)
+        return Rewards(per_step, logged={"embed_dist2": dist2.mean().item()})
 
     learner = trpo_train(
         task.make_env,
         budget,
         seed,
         reward_fn=reward_fn,
-        callback=report_each_update(task, logger, stats),
+        callback=report_each_update(task, logger),
         learner=TRPO(task.obs_shape, task.act_dim, cfg, seed, task.device),
     )
     return deterministic(learner, task)

@@ -76,20 +76,15 @@ class PolicyAverage:
 
 
 def report_each_update(
-    task: Task,
-    logger: Logger,
-    stats: dict[str, float] | None = None,
-    average: PolicyAverage | None = None,
+    task: Task, logger: Logger, average: PolicyAverage | None = None
 ) -> Callback:
-    """A TRPO callback: log `stats` (read at each call), the KL and the policy's action noise
-    (mean std), fold the policy into `average` if given, and offer the policy (the average, if
-    given) for evaluation."""
+    """A TRPO callback: log the update's diagnostics (the optimizer's, and the reward's own:
+    `Rewards.logged`) and the policy's action noise (mean std), fold the policy into `average`
+    if given, and offer the policy (the average, if given) for evaluation."""
 
     def on_update(steps: int, learner: TRPO, batch: Batch, info: dict[str, float]) -> None:
         noise = learner.policy.log_std.detach().exp().mean().item()
-        trunk = {k: info[k] for k in ("trunk_kl", "trunk_step_frac") if k in info}  # frames only
-        optimizer = {k: info[k] for k in ("kl", "vf_loss", "collect_s", "update_s") if k in info}
-        logger.log(steps, **(stats or {}), **optimizer, **trunk, policy_std=noise)
+        logger.log(steps, **info, policy_std=noise)
         if average is None:
             logger.checkpoint(steps, deterministic(learner, task))
         else:

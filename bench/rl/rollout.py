@@ -8,7 +8,7 @@ Episodes carry over between batches: an env is reset only when its episode ends.
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import gymnasium as gym
 import numpy as np
@@ -59,7 +59,8 @@ class Batch:
 
 @dataclass(frozen=True)
 class Rewards:
-    """What a reward function returns when terminations lead into an absorbing state.
+    """What a reward function returns beyond plain (T, E) rewards: a value for what follows a
+    termination, and what it wants logged.
 
     See `bench.rl.absorbing`: a terminated step bootstraps from `after_termination`
     (the tail's discounted value) instead of from 0.
@@ -67,13 +68,17 @@ class Rewards:
 
     per_step: np.ndarray
     """(T, E) rewards of the batch's transitions."""
-    after_termination: np.ndarray
-    """(T, E): at a terminated step, the discounted value of what follows it; ignored elsewhere."""
+    after_termination: np.ndarray | None = None
+    """(T, E): at a terminated step, the discounted value of what follows it; ignored elsewhere.
+    None: what follows a termination is worth 0."""
+    logged: dict[str, float] = field(default_factory=dict)
+    """Diagnostics of this batch's rewards (D's accuracy, say): the loop logs them with the
+    update's own."""
 
 
 RewardFn = Callable[[Batch], "np.ndarray | Rewards"]
 """Replaces the env reward: Batch -> (T, E) rewards, a function of (obs, action, next_obs) (and
-timestep); or `Rewards`, to give terminations a value of their own."""
+timestep); or `Rewards`, to value terminations or to log diagnostics."""
 
 
 class VecCollector:

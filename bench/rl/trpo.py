@@ -418,7 +418,8 @@ def train(
             steps += batch.n_steps
             t1 = time.perf_counter()
             rewards = batch.rewards if reward_fn is None else reward_fn(batch)
-            info = learner.update(batch, rewards)
+            logged = rewards.logged if isinstance(rewards, Rewards) else {}
+            info = {**logged, **learner.update(batch, rewards)}
             info.update(collect_s=t1 - t0, update_s=time.perf_counter() - t1)
             if callback is not None:
                 callback(steps, learner, batch, info)
