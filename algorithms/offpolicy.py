@@ -92,16 +92,15 @@ def current_d_reward(
     expert: sac.ReplayBatch,
     cfg: OffPolicyAdversarialConfig,
     seed: int,
-    stats: dict[str, float],
 ) -> sac.SACRewardFn:
     """The critic's reward hook: for each replay minibatch, one Adam step of D on it against
     as many expert transitions, then D's reward for that minibatch from D as it is after the
-    step. Its diagnostics go to `stats`."""
+    step, with D's diagnostics to log."""
     opt = torch.optim.Adam(disc.net.parameters(), lr=cfg.disc_lr)
     gen = torch.Generator().manual_seed(seed + 2)
     reward = REWARDS[cfg.reward]
 
-    def reward_fn(batch: sac.ReplayBatch) -> torch.Tensor:
+    def reward_fn(batch: sac.ReplayBatch) -> sac.Logged:
         idx = torch.randint(len(expert.obs), (len(batch.obs),), generator=gen)
         e_batch = sac.ReplayBatch(*(x[idx] for x in vars(expert).values()))
         p = disc.inputs(replay_transitions(batch))
@@ -119,13 +118,13 @@ def current_d_reward(
         opt.step()
         with torch.no_grad():  # the reward of this very minibatch, from D as it is now
             rewards = reward(disc.net(p).squeeze(-1))
-        stats.update(
-            disc_loss=bce.item(),
-            disc_acc_policy=(logit_p < 0).float().mean().item(),
-            disc_acc_expert=(logit_e > 0).float().mean().item(),
-            reward_mean=rewards.mean().item(),
-        )
-        return rewards
+        logged = {
+            "disc_loss": bce.item(),
+            "disc_acc_policy": (logit_p < 0).float().mean().item(),
+            "disc_acc_expert": (logit_e > 0).float().mean().item(),
+            "reward_mean": rewards.mean().item(),
+        }
+        return sac.Logged(rewards, logged)
 
     return reward_fn
 
@@ -144,9 +143,8 @@ def train_offpolicy_adversarial(
     norm = RunningNorm(task.obs_dim)  # D's scale: the expert's states, fixed
     norm.update(np.concatenate(demos.observations))
     disc = Discriminator(norm, features, task.obs_dim, task.act_dim, cfg.disc_hidden, True)
-    stats: dict[str, float] = {}
-    reward_fn = current_d_reward(disc, expert, cfg, seed, stats)
-    return _train(task, budget, seed, logger, cfg, reward_fn, stats)
+    reward_fn = current_d_reward(disc, expert, cfg, seed)
+    return _train(task, budget, seed, logger, cfg, reward_fn)
 
 
 def _train(
@@ -156,12 +154,11 @@ def _train(
     logger: Logger,
     cfg: OffPolicyConfig,
     reward_fn: sac.SACRewardFn | None,
-    stats: dict[str, float] | None = None,
 ) -> Policy:
     """SAC on `reward_fn` (None: the env's), logging and offering its policy as it goes."""
 
     def report(steps: int, learner: sac.SAC, info: dict[str, float]) -> None:
-        logger.log(steps, **info, **(stats or {}))
+        logger.log(steps, **info)
         logger.checkpoint(steps, sac.DeterministicActor(learner.actor))
 
     learner = sac.train(task.make_env, budget, seed, cfg, reward_fn, callback=report)

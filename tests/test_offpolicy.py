@@ -68,15 +68,15 @@ def test_rewards_come_from_the_current_discriminator(pendulum):
     norm = offpolicy.RunningNorm(obs_dim)
     norm.update(np.concatenate(demos.observations))
     disc = offpolicy.Discriminator(norm, offpolicy.state_transition, obs_dim, 1, (16, 16), True)
-    stats = {}
-    reward_fn = offpolicy.current_d_reward(disc, expert, cfg, 0, stats)
+    reward_fn = offpolicy.current_d_reward(disc, expert, cfg, 0)
     batch = sac.ReplayBatch(*(x[:32] for x in vars(expert).values()))  # any transitions
-    first = reward_fn(batch)
+    out = reward_fn(batch)
+    first = out.rewards
     with torch.no_grad():
         now = disc.net(disc.inputs(offpolicy.replay_transitions(batch))).squeeze(-1)
     assert torch.equal(first, now)  # D after its step on this very minibatch
-    assert not torch.equal(reward_fn(batch), first)  # and D moves on every minibatch
-    assert {"disc_loss", "disc_acc_policy", "disc_acc_expert"} <= set(stats)
+    assert not torch.equal(reward_fn(batch).rewards, first)  # and D moves on every minibatch
+    assert {"disc_loss", "disc_acc_policy", "disc_acc_expert"} <= set(out.logged)
 
 
 def test_the_controls_are_matched_and_every_off_policy_learner_runs(tmp_path):

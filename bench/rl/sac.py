@@ -234,8 +234,18 @@ class DeterministicActor:
 # ---------------------------------------------------------------- the learner
 
 
-SACRewardFn = Callable[[ReplayBatch], torch.Tensor]
-"""reward_fn(batch) -> (B,) rewards of a minibatch, e.g. from the current discriminator."""
+@dataclass(frozen=True)
+class Logged:
+    """Rewards of a minibatch with the diagnostics the reward wants logged (D's accuracy, say):
+    the loop logs them with the update's own."""
+
+    rewards: torch.Tensor
+    logged: dict[str, float]
+
+
+SACRewardFn = Callable[[ReplayBatch], "torch.Tensor | Logged"]
+"""reward_fn(batch) -> (B,) rewards of a minibatch, e.g. from the current discriminator, or
+`Logged` rewards."""
 
 
 class SAC:
@@ -366,7 +376,11 @@ def train(
                 owed += cfg.updates_per_step * len(envs)
                 while owed >= 1:
                     batch = buffer.sample(cfg.batch_size)
-                    info = learner.update(batch, reward(batch))
+                    rewards = reward(batch)
+                    if isinstance(rewards, Logged):
+                        info = {**rewards.logged, **learner.update(batch, rewards.rewards)}
+                    else:
+                        info = learner.update(batch, rewards)
                     owed -= 1
             clock["update_s"] += time.perf_counter() - t1
             if callback is not None and steps >= next_report:
