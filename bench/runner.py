@@ -17,9 +17,9 @@ from pathlib import Path
 import joblib
 from tqdm import tqdm
 
-from bench import policies, registry, store
+from bench import policies, store
 from bench.costs import CostModel
-from bench.trial import demo_pool, run_trial, trial_inputs, video
+from bench.trial import demo_pool, plan, run_trial
 from bench.types import TrialSpec
 
 
@@ -47,7 +47,7 @@ def _jobs(
     while remaining:  # a generator: the next trial is chosen (and loaded) as a worker frees up
         spec = max(remaining, key=costs.priority)  # first of equals: suite order
         remaining.remove(spec)
-        yield joblib.delayed(run_trial)(spec, trial_inputs(spec), device, tensorboard)
+        yield joblib.delayed(run_trial)(spec, plan(spec).inputs(), device, tensorboard)
 
 
 def run_suite(
@@ -72,10 +72,11 @@ def run_suite(
     for r in records:  # what earlier runs into this folder measured
         if r.status == "ok":
             costs.observe(r.spec, r.wall_time)
+    plans = [plan(s) for s in todo]
     sources = {
-        (s.env_id, s.dataset or "", video(s))
-        for s in todo
-        if registry.get(s.algorithm).inputs in ("states", "actions")
+        (p.spec.env_id, p.spec.dataset or "", p.filmed)
+        for p in plans
+        if p.algorithm.inputs in ("states", "actions")
     }
     for env_id, dataset, filmed in sources:  # demo pools made once, before forking
         demo_pool(env_id, dataset or None, filmed)

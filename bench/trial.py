@@ -106,31 +106,69 @@ def versions() -> dict[str, str]:
     return {pkg: version(pkg) for pkg in ("ifo-bench", "torch", "gymnasium", "pybullet")}
 
 
-def frames(spec: TrialSpec) -> PixelConfig:
-    """How a pixel or video-reward trial's frames are made."""
-    return PixelConfig() if spec.frame_size is None else PixelConfig(size=spec.frame_size)
+@dataclass(frozen=True)
+class Plan:
+    """A trial's spec resolved once, before it runs: its algorithm, how that algorithm observes
+    the env, and from these its envs, its Task and the inputs it is handed."""
 
-
-def pixels(spec: TrialSpec) -> PixelConfig | None:
-    """How the trial's algorithm sees its env: frames in a pixel suite env (the expert, which
-    cannot learn from them, acts on states there too), else None (states)."""
-    if spec.observation == "pixels" and registry.get(spec.algorithm).pixels:
-        return frames(spec)
-    return None
-
-
-def beside(spec: TrialSpec) -> PixelConfig | None:
-    """Frames filmed beside the state, in a video-reward env, for an algorithm that imitates
+    spec: TrialSpec
+    algorithm: registry.Algorithm
+    pixels: PixelConfig | None
+    """Frames the algorithm learns from, in a pixel suite env (the expert, which cannot learn
+    from them, acts on states there too); None: states."""
+    beside: PixelConfig | None
+    """Frames filmed beside the states, in a video-reward env, for an algorithm that imitates
     video while acting on states; else None."""
-    if spec.observation == "video-reward" and registry.get(spec.algorithm).video_reward:
-        return frames(spec)
-    return None
+
+    @property
+    def filmed(self) -> PixelConfig | None:
+        """How the demonstrations are filmed: as the learner sees them (pixels) or as its
+        reward judges them (video-reward); None: they are states."""
+        return self.pixels or self.beside
+
+    def make_env(self, seed: int, training: bool = True) -> gym.Env:
+        """An env of the trial, observed as its algorithm observes it. Where it imitates video
+        while acting on states, training envs film themselves beside (`VideoBeside`);
+        evaluation envs need not."""
+        if training and self.beside is not None:
+            return VideoBeside(envs.make(self.spec.env_id, seed, self.beside))
+        return envs.make(self.spec.env_id, seed, self.pixels)
+
+    def task(self, tally: list[int], device: str = "cpu") -> registry.Task:
+        """The trial's Task: its envs count every step into `tally[0]` and stop past the
+        budget."""
+        obs_dim, act_dim, low, high = envs.spaces(self.spec.env_id, self.pixels)
+        budget = self.spec.budget
+        return registry.Task(
+            self.spec.env_id,
+            obs_dim,
+            act_dim,
+            low,
+            high,
+            make_env=lambda s: StepCounter(self.make_env(s), tally, budget),
+            device=device,
+            pixels=self.pixels,
+            video=self.beside,
+        )
+
+    def inputs(self) -> Any:
+        """What the algorithm is handed as `demos`, according to its `inputs`."""
+        kind, spec = self.algorithm.inputs, self.spec
+        if kind == "none":
+            return None
+        if kind == "expert":
+            return None if spec.dataset else experts.load_expert(spec.env_id)
+        pool = demo_pool(spec.env_id, spec.dataset, self.filmed)
+        load = demos.load_demos if kind == "states" else demos.load_action_demos
+        return load(pool, spec.env_id, spec.n_demos, spec.seed, self.filmed)
 
 
-def video(spec: TrialSpec) -> PixelConfig | None:
-    """How the trial's demonstrations are filmed: as the learner sees (pixels) or as its
-    reward judges (video-reward); None: they are states."""
-    return pixels(spec) or beside(spec)
+def plan(spec: TrialSpec) -> Plan:
+    algorithm = registry.get(spec.algorithm)
+    frames = PixelConfig() if spec.frame_size is None else PixelConfig(size=spec.frame_size)
+    seen = frames if spec.observation == "pixels" and algorithm.pixels else None
+    beside = frames if spec.observation == "video-reward" and algorithm.video_reward else None
+    return Plan(spec, algorithm, seen, beside)
 
 
 def demo_pool(env_id: str, dataset: str | None, video: PixelConfig | None = None) -> Path:
@@ -153,46 +191,6 @@ def expert_distance(spec: TrialSpec, visited: list[np.ndarray]) -> float | None:
     return state_match.state_distance(np.concatenate(visited), expert_states)
 
 
-def trial_inputs(spec: TrialSpec) -> Any:
-    """What the trial's algorithm is handed as `demos`, according to its `inputs`."""
-    kind = registry.get(spec.algorithm).inputs
-    if kind == "none":
-        return None
-    if kind == "expert":
-        return None if spec.dataset else experts.load_expert(spec.env_id)
-    filmed = video(spec)
-    pool = demo_pool(spec.env_id, spec.dataset, filmed)
-    load = demos.load_demos if kind == "states" else demos.load_action_demos
-    return load(pool, spec.env_id, spec.n_demos, spec.seed, filmed)
-
-
-def make_env(spec: TrialSpec, seed: int, training: bool = True) -> gym.Env:
-    """An env of the trial, observed as its algorithm observes it. Where it imitates video
-    while acting on states, training envs film themselves beside (`VideoBeside`); evaluation
-    envs need not."""
-    filmed = beside(spec) if training else None
-    if filmed is not None:
-        return VideoBeside(envs.make(spec.env_id, seed, filmed))
-    return envs.make(spec.env_id, seed, pixels(spec))
-
-
-def make_task(spec: TrialSpec, tally: list[int], device: str = "cpu") -> registry.Task:
-    """The trial's Task: its envs count every step into `tally[0]` and stop past the budget."""
-    seen = pixels(spec)
-    obs_dim, act_dim, low, high = envs.spaces(spec.env_id, seen)
-    return registry.Task(
-        spec.env_id,
-        obs_dim,
-        act_dim,
-        low,
-        high,
-        make_env=lambda s: StepCounter(make_env(spec, s), tally, spec.budget),
-        device=device,
-        pixels=seen,
-        video=beside(spec),
-    )
-
-
 def run_trial(
     spec: TrialSpec, inputs: Any, device: str = "cpu", tensorboard: str | Path | None = None
 ) -> TrialResult:
@@ -209,17 +207,18 @@ def run_trial(
     try:
         logger.events = open_events(tensorboard, spec)
         torch.manual_seed(spec.seed)
-        algo = registry.get(spec.algorithm)
+        trial = plan(spec)
+        algo = trial.algorithm
         given = algo.inputs
         if spec.dataset and algo.inputs == "expert":
             # The demonstrator of an imported dataset cannot be run: its returns stand in.
             returns, reference = minari_io.expert_reference(minari_io.open_dataset(spec.dataset))
         else:
-            eval_envs += [make_env(spec, eval_seed + i) for i in range(min(10, spec.eval_episodes))]
-            task = make_task(spec, tally, device)
+            eval_envs += [trial.make_env(eval_seed + i) for i in range(min(10, spec.eval_episodes))]
+            task = trial.task(tally, device)
             config = algo.make_config(spec.hyperparams)
             policy = algo.train(task, inputs, spec.budget, spec.seed, logger, config)
-            visited: list[np.ndarray] | None = None if pixels(spec) else []
+            visited: list[np.ndarray] | None = None if trial.pixels else []
             returns = evaluate(policy, eval_envs, spec.eval_episodes, eval_seed, visited)
             saved = None if algo.name == "expert" else policies.to_bytes(policy)
             distance = expert_distance(spec, visited) if visited else None

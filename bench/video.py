@@ -24,7 +24,7 @@ from bench.normalize import ORACLE, REFERENCES, normalize
 from bench.pixels import PixelConfig
 from bench.registry import Policy
 from bench.rl.networks import observation
-from bench.trial import EVAL_SEED, make_env, pixels
+from bench.trial import EVAL_SEED, plan
 from bench.types import TrialSpec
 
 TITLE_HEIGHT = 22
@@ -104,8 +104,9 @@ def rollout(
     """(H, W, 3) uint8 frames of one deterministic episode, `steps` + 1 of them: the start
     state and each step after it; past the episode's end its last frame, dimmed."""
     camera = envs.make(env_id, episode_seed, PixelConfig(size=size, stack=1, grayscale=False))
-    seen = pixels(panel.spec) if panel.spec is not None else None
-    actor = make_env(panel.spec, episode_seed, training=False) if seen is not None else None
+    trial = plan(panel.spec) if panel.spec is not None else None
+    seen = trial.pixels if trial is not None else None
+    actor = trial.make_env(episode_seed, training=False) if seen is not None else None
     try:
         view, info = camera.reset(seed=episode_seed)
         obs = actor.reset(seed=episode_seed)[0] if actor is not None else info["state"]

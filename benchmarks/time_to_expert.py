@@ -21,9 +21,9 @@ import joblib
 import numpy as np
 import torch
 
-from bench import envs, experts, registry
+from bench import envs, experts
 from bench.rl.rollout import evaluate
-from bench.trial import make_task, trial_inputs
+from bench.trial import plan
 from bench.types import TrialSpec
 
 
@@ -55,13 +55,13 @@ class ThresholdLogger:
 
 def run(spec: TrialSpec, lo: float, hi: float, threshold: float, every: int) -> tuple:
     torch.set_num_threads(1)
-    algo = registry.get(spec.algorithm)
-    task = make_task(spec, tally=[0])
+    trial = plan(spec)
+    algo, task = trial.algorithm, trial.task(tally=[0])
     logger = ThresholdLogger(spec.env_id, lo, hi, threshold, every)
     try:
         algo.train(
             task,
-            trial_inputs(spec),
+            trial.inputs(),
             spec.budget,
             spec.seed,
             logger,

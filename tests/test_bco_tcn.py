@@ -9,7 +9,7 @@ import torch
 from algorithms import bco, tcn
 from bench import envs, registry
 from bench.rl.rollout import VecCollector
-from bench.trial import run_trial, trial_inputs
+from bench.trial import plan, run_trial
 from bench.types import Demos, TrialSpec
 
 PENDULUM = "InvertedPendulumBulletEnv-v0"
@@ -32,7 +32,7 @@ def run_state_only(name: str, budget: int, monkeypatch, **hp):
 
     monkeypatch.setitem(registry._ALGORITHMS, name, dataclasses.replace(algo, train=checked))
     spec = TrialSpec("t", PENDULUM, name, 1, 0, budget, 2, hp)
-    inputs = trial_inputs(spec)
+    inputs = plan(spec).inputs()
     assert type(inputs) is Demos and not hasattr(inputs, "actions")
     result = run_trial(spec, inputs)
     assert result.status == "ok", result.traceback

@@ -106,11 +106,11 @@ def test_the_controls_are_matched_and_every_off_policy_learner_runs(tmp_path):
     assert records["oracle-sac"].returns == records["survival-sac"].returns
     from bench import policies
     from bench.rl.rollout import evaluate
-    from bench.trial import EVAL_SEED, make_env
+    from bench.trial import EVAL_SEED, plan
 
     spec = records["gaifo-sac"].spec  # its kept policy acts as it did when scored
     policy = policies.load(policies.path(tmp_path / "res", spec.trial_id))
-    envs = [make_env(spec, EVAL_SEED + i, training=False) for i in range(2)]
+    envs = [plan(spec).make_env(EVAL_SEED + i, training=False) for i in range(2)]
     assert evaluate(policy, envs, 2, EVAL_SEED) == records["gaifo-sac"].returns
 
 

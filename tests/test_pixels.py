@@ -109,7 +109,7 @@ def tiny_suite(tmp_path, monkeypatch, observation: str) -> list:
 @pytest.mark.usefixtures("demo_cache")
 def test_a_tiny_pixel_suite_runs_end_to_end(tmp_path, monkeypatch):
     specs = tiny_suite(tmp_path, monkeypatch, "pixels, frame_size: 32")
-    assert {trial.pixels(s).shape for s in specs if s.algorithm != "expert"} == {(4, 32, 32)}
+    assert {trial.plan(s).pixels.shape for s in specs if s.algorithm != "expert"} == {(4, 32, 32)}
     assert run_suite(specs, tmp_path / "res", jobs=2, progress=False).failed == 0
     records = {r.spec.algorithm: r for r in store.scan(tmp_path / "res")}
     assert set(records) == {"random", "expert", "gaifo", "survival", "tcn"}
@@ -157,12 +157,12 @@ def test_the_pendulum_fills_the_frame():
 def test_a_video_reward_suite_acts_on_states_and_judges_frames(tmp_path, monkeypatch):
     specs = tiny_suite(tmp_path, monkeypatch, "video-reward")
     gaifo = next(s for s in specs if s.algorithm == "gaifo")
-    assert trial.pixels(gaifo) is None and trial.video(gaifo) == PixelConfig()
-    env = trial.make_env(gaifo, 0)
+    assert trial.plan(gaifo).pixels is None and trial.plan(gaifo).filmed == PixelConfig()
+    env = trial.plan(gaifo).make_env(0)
     state, info = env.reset(seed=0)
     assert state.shape == (5,) and info["frames"].shape == (np.prod(PixelConfig().shape),)
     env.close()
-    shown = trial.trial_inputs(gaifo)
+    shown = trial.plan(gaifo).inputs()
     assert shown.observations[0].dtype == np.uint8, "the demonstrations are video"
     assert runner.run_suite(specs, tmp_path / "res", jobs=1, progress=False).failed == 0
     logs = {r.spec.algorithm: r.logs for r in store.scan(tmp_path / "res")}

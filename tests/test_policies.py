@@ -8,7 +8,7 @@ from bench.reuse import reuse
 from bench.rl.rollout import evaluate
 from bench.runner import run_suite
 from bench.suite import expand, load_suite
-from bench.trial import EVAL_SEED, make_env
+from bench.trial import EVAL_SEED, plan
 
 PENDULUM = "InvertedPendulumBulletEnv-v0"
 
@@ -42,7 +42,7 @@ def test_a_saved_policy_reproduces_its_records_evaluation(finished):
         assert torch.load(file, weights_only=True)["obs_shape"] == [5]
         policy = policies.load(file)
         seed = EVAL_SEED + 1000 * spec.seed
-        envs = [make_env(spec, seed + i, training=False) for i in range(spec.eval_episodes)]
+        envs = [plan(spec).make_env(seed + i, training=False) for i in range(spec.eval_episodes)]
         assert evaluate(policy, envs, spec.eval_episodes, seed) == record.returns, spec.algorithm
         for env in envs:
             env.close()

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from bench import registry
-from bench.trial import run_trial, trial_inputs
+from bench.trial import plan, run_trial
 from bench.types import ActionDemos, Demos, TrialSpec
 
 PENDULUM = "InvertedPendulumBulletEnv-v0"
@@ -28,7 +28,7 @@ def test_only_gail_is_handed_actions():
     # GAIL, on either optimizer, is the one algorithm that sees the expert's actions
     assert sorted(name for name, a in algos.items() if a.uses_actions) == ["gail", "gail-sac"]
     for name, algo in algos.items():
-        inputs = trial_inputs(spec(name))
+        inputs = plan(spec(name)).inputs()
         if algo.inputs == "states":
             assert type(inputs) is Demos and not hasattr(inputs, "actions"), name
         elif algo.inputs == "actions":
@@ -123,7 +123,7 @@ def test_the_oracle_trains_on_the_envs_reward_where_survival_trains_on_one_per_s
 
     def returns(algorithm: str, env_id: str) -> list[float]:
         trial = TrialSpec("t", env_id, algorithm, 0, 0, 2048, 2, {"policy_average": 0.0})
-        result = run_trial(trial, trial_inputs(trial))
+        result = run_trial(trial, plan(trial).inputs())
         assert result.status == "ok", result.traceback
         return result.returns
 

@@ -45,7 +45,7 @@ def test_a_trial_records_how_far_its_states_lie_from_the_experts(seeds):
         out = []
         for seed in seeds:
             spec = TrialSpec("t", "InvertedPendulumBulletEnv-v0", algorithm, 0, seed, 1000, 5)
-            record = trial.run_trial(spec, trial.trial_inputs(spec))
+            record = trial.run_trial(spec, trial.plan(spec).inputs())
             assert record.status == "ok", record.traceback
             out.append(record.state_distance)
         return out
