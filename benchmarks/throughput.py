@@ -3,11 +3,13 @@
     python benchmarks/throughput.py [--steps 60000] [--envs InvertedPendulumBulletEnv-v0 HopperBulletEnv-v0]
     python benchmarks/throughput.py --pixels --steps 10000   # from 64x64 frames (`observation: pixels`)
     python benchmarks/throughput.py --envs HopperBulletEnv-v0 --steps 5000 --sac 128 256   # SAC beside
+    python benchmarks/throughput.py --library   # everything with pybullet's own stepping: the before
 
-Prints one row per env. `trpo/raw` = TRPO training throughput (updates
-included) over raw stepping: the simulator is the limit, everything else is
-overhead. `gaifo/trpo` = GAIfO (discriminator updates and rewards included)
-over plain TRPO. GAIfO needs the env's expert (for one demonstration).
+Prints one row per env. `raw (library)` steps the env as pybullet_envs_gymnasium ships it,
+`raw` with `bench.bullet_speed` (what every trial runs; same trajectories). `trpo/raw` =
+TRPO training throughput (updates included) over raw stepping: the simulator is the limit,
+everything else is overhead. `gaifo/raw` likewise for GAIfO (discriminator updates and
+rewards included). GAIfO needs the env's expert (for one demonstration).
 With --pixels, raw stepping renders every frame and the networks are convolutional:
 `trpo/raw` then says how much of training is the networks' rather than the renderer's.
 """
@@ -127,17 +129,31 @@ def main() -> None:
         help="also SAC (one update per env step) with WIDTH x WIDTH networks, e.g. --sac 128 256;"
         " --steps then counts its learning steps",
     )
+    parser.add_argument(
+        "--library",
+        action="store_true",
+        help="run everything with pybullet_envs_gymnasium's own stepping (bench.bullet_speed off)",
+    )
     args = parser.parse_args()
     pixels = PixelConfig(size=args.frame_size) if args.pixels else None
     torch.set_num_threads(1)
-    header = ("env", "raw steps/s", "TRPO steps/s", "GAIfO steps/s", "trpo/raw", "gaifo/trpo")
-    print(f"{header[0]:32s}" + "".join(f"{h:>15s}" for h in header[1:]))
+    from bench import bullet_speed
+
+    envs.make(args.envs[0], 0).close()  # registers the envs, and with them the patches
+    header = ("env", "raw (library)", "raw", "TRPO", "GAIfO", "trpo/raw", "gaifo/raw")
+    print("steps per second, one core" + (" (--library: no speed patches)" if args.library else ""))
+    print(f"{header[0]:32s}" + "".join(f"{h:>14s}" for h in header[1:]))
     for env_id in args.envs:
+        bullet_speed.restore()
+        library = raw_steps_per_s(env_id, args.steps, pixels)
+        if not args.library:
+            bullet_speed.apply_again()
         raw = raw_steps_per_s(env_id, args.steps, pixels)
         trpo = trpo_steps_per_s(env_id, args.steps, pixels)
         gaifo = gaifo_steps_per_s(env_id, args.steps, pixels)
         print(
-            f"{env_id:32s}{raw:15,.0f}{trpo:15,.0f}{gaifo:15,.0f}{trpo / raw:15.2f}{gaifo / trpo:15.2f}",
+            f"{env_id:32s}{library:14,.0f}{raw:14,.0f}{trpo:14,.0f}{gaifo:14,.0f}"
+            f"{trpo / raw:14.2f}{gaifo / raw:14.2f}",
             flush=True,
         )
         for width in args.sac or []:
