@@ -5,7 +5,8 @@ Suites overlap: Hopper at 1M steps with 5 demonstrations is a trial of
 its suite's name, so each suite would run it again. Everything else that decides
 the outcome (env, algorithm, resolved config, demos, seed, budget, evaluation)
 is in the spec, so a finished record whose spec differs only in the suite's name
-is that trial: it is copied, marked with where it came from (`copied_from`),
+(or the label it is shown under, a name too: `gaifo-b4096` in a screen is `gaifo` in a suite
+that sets the same batch for the env) is that trial: it is copied, marked with where it came from (`copied_from`),
 instead of spending core-hours to redraw it. (On one machine the rerun would be
 bit-identical; on another it would be a fresh draw of the same distribution.)
 """
@@ -22,8 +23,11 @@ from bench.types import TrialResult, TrialSpec
 
 
 def _key(spec: TrialSpec) -> str:
-    """The spec without its suite's name: what the trial is, wherever it ran."""
-    return json.dumps({**json.loads(spec.canonical()), "suite": None}, sort_keys=True)
+    """The spec without its suite's name and label: what the trial is, wherever it ran and
+    whatever it was called."""
+    return json.dumps(
+        {**json.loads(spec.canonical()), "suite": None, "label": None}, sort_keys=True
+    )
 
 
 def reuse(

@@ -210,6 +210,35 @@ def test_a_state_trials_estimate_never_goes_by_a_pixel_trials_cost():
     assert row.seconds == pytest.approx(500.0) and "B (pixels)" in row.basis
 
 
+def test_reuse_matches_a_variant_by_its_settings_not_its_label(tmp_path):
+    """A labelled variant in a screen and the plain entry of a suite whose env sets the same
+    settings are one trial: the record is copied under the suite's own spec."""
+    from bench.reuse import reuse
+
+    tiny = f"envs: {{{PENDULUM}: {{budget: 2048, trpo: {{n_envs: 2}}}}}}\ndemos: [1]\n"
+    screen = write_suite(
+        tmp_path,
+        "screen",
+        f"envs: {{{PENDULUM}: {{budget: 2048}}}}\ndemos: [1]\nalgorithms: [random, expert,"
+        " {algorithm: survival, label: survival-e2, n_envs: 2}]\nseeds: 2\neval_episodes: 2\n",
+    )
+    suite = write_suite(
+        tmp_path,
+        "figure",
+        tiny + "algorithms: [random, expert, survival]\nseeds: 2\neval_episodes: 2\n",
+    )
+    assert (
+        run_suite(expand(load_suite(screen)), tmp_path / "screen", jobs=1, progress=False).failed
+        == 0
+    )
+    specs = expand(load_suite(suite))
+    assert reuse(specs, tmp_path / "figure", [tmp_path / "screen"]) == 6
+    copied = {r.spec.algorithm: r for r in store.scan(tmp_path / "figure") if r.spec.seed == 0}
+    assert copied["survival"].spec.label is None and copied["survival"].spec.suite == "figure"
+    source = {r.spec.shown: r for r in store.scan(tmp_path / "screen") if r.spec.seed == 0}
+    assert copied["survival"].returns == source["survival-e2"].returns
+
+
 def test_reuse_copies_the_same_trials_from_another_suite_and_runs_the_rest(
     tmp_path, cli, install_plugin
 ):
