@@ -150,12 +150,37 @@ class CountStatistics:
     """Why there are no statistics at all, in words (None: there are)."""
 
 
+def pooled(df: pd.DataFrame, n: int, names: list[str], left_out: list[str]) -> list[str]:
+    """The learners whose scores pool over envs at `n` demonstrations: all of them where some
+    env has every learner (score_dict then keeps the envs they share), else those run on the
+    env set most learners share among the widest (a screen's variants on one env each), the
+    others said in `left_out`."""
+    rows = df[(df["n_demos"] == n) | (df["n_demos"] == 0)]
+    envs_of = {a: frozenset(rows.loc[rows["algorithm"] == a, "env_id"]) for a in names}
+    if not names or frozenset.intersection(*envs_of.values()):
+        return names
+    widest = max(len(e) for e in envs_of.values())
+    candidates = {e for e in envs_of.values() if len(e) == widest}
+    chosen = max(
+        sorted(candidates, key=sorted), key=lambda e: sum(o >= e for o in envs_of.values())
+    )
+    keep = [a for a in names if envs_of[a] >= chosen]
+    for a in names:
+        if a not in keep:
+            left_out.append(
+                f"{a}: left out of the pooled statistics: run on {sorted(envs_of[a])} only,"
+                f" not on all of {sorted(chosen)}"
+            )
+    return keep
+
+
 def count_statistics(df: pd.DataFrame, n: int, reps: int) -> CountStatistics:
     """Every learner's pooled aggregates, the probabilities of improvement
     (`improvement_pairs`) and the performance profile at `n` demonstrations."""
     left_out: list[str] = []
     try:
-        scores = stats.score_dict(df, n, algorithms=competitors(df, n), left_out=left_out)
+        names = pooled(df, n, competitors(df, n), left_out)
+        scores = stats.score_dict(df, n, algorithms=names, left_out=left_out)
     except ValueError as e:
         return CountStatistics({}, left_out=left_out, failure=str(e))
     aggregate = stats.aggregate_scores(scores, reps=reps)

@@ -330,3 +330,19 @@ def test_ceiling_of_matches_a_variant_suffix_else_the_plain_oracle():
     }
     assert comparisons.ceiling_of("gaifo-sac", sac) == "oracle-sac"  # each optimizer's own ceiling
     assert comparisons.ceiling_of("gaifo", sac) == "oracle"
+
+
+def test_screen_variants_on_one_env_each_leave_the_pooled_statistics_not_the_others():
+    """A screen often runs a variant on one env only. Pooling over envs then keeps the learners
+    run on every env the widest share, and says which it left out, instead of no statistics."""
+    import pandas as pd
+
+    from bench.comparisons import pooled
+
+    rows = [("A", "gaifo"), ("B", "gaifo"), ("A", "gail"), ("B", "gail"), ("A", "gaifo-x")]
+    rows += [("B", "gaifo-y")]
+    df = pd.DataFrame([{"env_id": e, "algorithm": a, "n_demos": 5} for e, a in rows])
+    left_out: list[str] = []
+    assert pooled(df, 5, ["gaifo", "gaifo-x", "gaifo-y", "gail"], left_out) == ["gaifo", "gail"]
+    assert len(left_out) == 2 and "gaifo-x: left out" in left_out[0]
+    assert pooled(df, 5, ["gaifo", "gaifo-x"], []) == ["gaifo", "gaifo-x"]  # they share env A
