@@ -253,7 +253,13 @@ class OPOLO:
         return dict(self.stats)
 
 
-@register("opolo", config=OPOLOConfig, inputs="states", min_budget=sac_budget)
+@register(
+    "opolo",
+    config=OPOLOConfig,
+    inputs="states",
+    description="OPOLO: off-policy GAIfO on TD3, dual form, inverse-action regularizer",
+    min_budget=sac_budget,
+)
 def train(task: Task, demos: Demos, budget: int, seed: int, logger: Logger, config) -> Policy:
     learner = OPOLO(task, demos, config, seed)
 
