@@ -144,24 +144,28 @@ def train_offpolicy_adversarial(
     norm.update(np.concatenate(demos.observations))
     disc = Discriminator(norm, features, task.obs_dim, task.act_dim, cfg.disc_hidden, True)
     reward_fn = current_d_reward(disc, expert, cfg, seed)
-    return _train(task, budget, seed, logger, cfg, reward_fn)
+    return train_on_reward(task, budget, seed, logger, cfg, reward_fn)
 
 
-def _train(
+def train_on_reward(
     task: Task,
     budget: int,
     seed: int,
     logger: Logger,
     cfg: OffPolicyConfig,
     reward_fn: sac.SACRewardFn | None,
+    learner: sac.OffPolicyLearner | None = None,
 ) -> Policy:
-    """SAC on `reward_fn` (None: the env's), logging and offering its policy as it goes."""
+    """SAC (or `learner`, as OPOLO's TD3) on `reward_fn` (None: the env's), logging and
+    offering its policy as it goes."""
 
     def report(steps: int, learner: sac.SAC, info: dict[str, float]) -> None:
         logger.log(steps, **info)
         logger.checkpoint(steps, sac.DeterministicActor(learner.actor))
 
-    learner = sac.train(task.make_env, budget, seed, cfg, reward_fn, callback=report)
+    learner = sac.train(
+        task.make_env, budget, seed, cfg, reward_fn, callback=report, learner=learner
+    )
     return sac.DeterministicActor(learner.actor)
 
 
@@ -202,7 +206,7 @@ def train_gail(
 )
 def train_survival(task: Task, demos: None, budget: int, seed: int, logger: Logger, config):
     # +1 for every real step (the one into the absorbing state included), 0 on the loop
-    return _train(task, budget, seed, logger, config, lambda b: (~b.obs_absorbing).float())
+    return train_on_reward(task, budget, seed, logger, config, lambda b: (~b.obs_absorbing).float())
 
 
 @register(
@@ -213,4 +217,4 @@ def train_survival(task: Task, demos: None, budget: int, seed: int, logger: Logg
     min_budget=sac_budget,
 )
 def train_oracle(task: Task, demos: None, budget: int, seed: int, logger: Logger, config):
-    return _train(task, budget, seed, logger, config, None)
+    return train_on_reward(task, budget, seed, logger, config, None)

@@ -34,7 +34,7 @@ import torch
 import torch.nn.functional as F
 from torch import nn
 
-from algorithms.offpolicy import OffPolicyConfig, expert_replay, sac_budget
+from algorithms.offpolicy import OffPolicyConfig, expert_replay, sac_budget, train_on_reward
 from bench.registry import Logger, Policy, Task, register
 from bench.rl import sac
 from bench.rl.networks import RunningNorm, mlp
@@ -85,6 +85,11 @@ class OPOLOConfig(OffPolicyConfig):
         above(self, 0, "disc_lr")
 
 
+def normalized_pair(norm: RunningNorm, batch: sac.ReplayBatch) -> torch.Tensor:
+    """(s, s') of a minibatch, each normalized with the expert's statistics: what D and M read."""
+    return torch.cat([norm(batch.raw("obs")), norm(batch.raw("next_obs"))], 1)
+
+
 class StateTransitionD(nn.Module):
     """Logit of P(expert | s, s'), observations normalized with the expert's statistics."""
 
@@ -94,7 +99,7 @@ class StateTransitionD(nn.Module):
         self.net = mlp([2 * obs_dim, *hidden, 1])
 
     def inputs(self, batch: sac.ReplayBatch) -> torch.Tensor:
-        return torch.cat([self.norm(batch.raw("obs")), self.norm(batch.raw("next_obs"))], 1)
+        return normalized_pair(self.norm, batch)
 
     def forward(self, x: torch.Tensor) -> torch.Tensor:
         return self.net(x).squeeze(-1)
@@ -109,9 +114,7 @@ class InverseModel(nn.Module):
         self.net = mlp([2 * obs_dim, *hidden, act_dim])
 
     def forward(self, batch: sac.ReplayBatch) -> torch.Tensor:
-        return self.net(
-            torch.cat([self.norm(batch.raw("obs")), self.norm(batch.raw("next_obs"))], 1)
-        )
+        return self.net(normalized_pair(self.norm, batch))
 
 
 class OPOLO:
@@ -262,10 +265,4 @@ class OPOLO:
 )
 def train(task: Task, demos: Demos, budget: int, seed: int, logger: Logger, config) -> Policy:
     learner = OPOLO(task, demos, config, seed)
-
-    def report(steps: int, learner: OPOLO, info: dict[str, float]) -> None:
-        logger.log(steps, **info)
-        logger.checkpoint(steps, sac.DeterministicActor(learner.actor))
-
-    sac.train(task.make_env, budget, seed, config, learner.reward, callback=report, learner=learner)
-    return sac.DeterministicActor(learner.actor)
+    return train_on_reward(task, budget, seed, logger, config, learner.reward, learner)

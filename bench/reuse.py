@@ -6,8 +6,8 @@ its suite's name, so each suite would run it again. Everything else that decides
 the outcome (env, algorithm, resolved config, demos, seed, budget, evaluation)
 is in the spec, so a finished record whose spec differs only in the suite's name
 (or the label it is shown under, a name too: `gaifo-b4096` in a screen is `gaifo` in a suite
-that sets the same batch for the env) is that trial: it is copied, marked with where it came from (`copied_from`),
-instead of spending core-hours to redraw it. (On one machine the rerun would be
+that sets the same batch for the env) is that trial: it is copied, marked with where it came
+from (`copied_from`), instead of spending core-hours to redraw it. (On one machine the rerun would be
 bit-identical; on another it would be a fresh draw of the same distribution.)
 """
 

@@ -23,6 +23,18 @@ class Invalid(Exception):
         super().__init__(f"{key}: {message}" if key else message)
 
 
+def joined(key: str, field: str) -> str:
+    """A key path and a field under it: envs.X + budget, demos + [1]; either may be empty."""
+    if not (key and field):
+        return key or field
+    return f"{key}{'' if field.startswith('[') else '.'}{field}"
+
+
+def at_setting(key: str, error: validate.SettingError) -> Invalid:
+    """A setting's problem (`bench.validate`) at its path under `key`."""
+    return Invalid(joined(key, error.field), error.message)
+
+
 def check_budgets(suite: Suite) -> None:
     """Each trial's budget covers what its algorithm needs before it can learn anything (one
     TRPO batch, say), asked of the algorithm (`register(..., min_budget=)`): a trial that
@@ -100,7 +112,7 @@ def check_env_hyperparams(env: EnvSettings, algorithms: tuple[AlgorithmEntry, ..
             try:
                 validate.check_types(config, {name: value})
             except validate.SettingError as e:
-                raise Invalid(f"{key}.{e.field}", e.message) from None
+                raise at_setting(key, e) from None
 
 
 def check_env_settings(env: EnvSettings, algorithms: tuple[AlgorithmEntry, ...]) -> None:
@@ -129,7 +141,7 @@ def check_hyperparams(algo: registry.Algorithm, overrides: dict, key: str) -> No
     try:
         algo.make_config(overrides)
     except validate.SettingError as e:
-        raise Invalid(f"{key}.{e.field}" if e.field else key, e.message) from None
+        raise at_setting(key, e) from None
     except (TypeError, ValueError) as e:
         raise Invalid(key, one_line(str(e))) from None
 
@@ -140,7 +152,7 @@ def check_config(config: type, values: dict, key: str) -> None:
         validate.check_types(config, values)
         config(**values)
     except validate.SettingError as e:
-        raise Invalid(f"{key}.{e.field}" if e.field else key, e.message) from None
+        raise at_setting(key, e) from None
     except (TypeError, ValueError) as e:
         raise Invalid(key, one_line(str(e))) from None
 

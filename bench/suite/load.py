@@ -101,7 +101,6 @@ def _suite(raw: Any, default_name: str) -> Suite:
                     f"demos[{i}]",
                     f"expected at most {DEMO_POOL_SIZE} (the shipped demonstrations), got {n}",
                 )
-    demos = tuple(file.demos)
     runner = RunnerSettings(file.runner.jobs, file.runner.backend)
     algorithms = _algorithms(file.algorithms)
 
@@ -118,7 +117,7 @@ def _suite(raw: Any, default_name: str) -> Suite:
         if env.observation is not None:
             checks.check_video_learners(env, algorithms)
         if env.dataset is not None:  # its demonstrator is the 1.0: no shipped expert needed
-            checks.check_dataset(env, max(demos), algorithms)
+            checks.check_dataset(env, max(file.demos), algorithms)
         elif not paths.has_expert(env.env_id):
             raise checks.Invalid(
                 f"envs.{env.env_id}",
@@ -134,7 +133,7 @@ def _suite(raw: Any, default_name: str) -> Suite:
                 f"{', '.join(map(repr, unknown))} is no algorithm or label of the suite"
                 f" ({', '.join(sorted(names))})",
             )
-    suite = Suite(name, envs, demos, algorithms, file.seeds, file.eval_episodes, runner)
+    suite = Suite(name, envs, file.demos, algorithms, file.seeds, file.eval_episodes, runner)
     checks.check_budgets(suite)
     return suite
 
@@ -158,7 +157,7 @@ def _env(env_id: str, settings: schema.EnvFile) -> EnvSettings:
         settings.frame_size,
         dict(settings.trpo),
         dict(settings.hyperparams),
-        {name: tuple(seeds) for name, seeds in settings.seeds.items()},
+        dict(settings.seeds),
     )
 
 
@@ -203,8 +202,7 @@ def _entry(item: Any, key: str) -> tuple[str, str | None, tuple[int, ...] | None
                 f"{key}.label", f"{entry.label!r} is an algorithm's name; pick another label"
             )
         overrides = {k: v for k, v in item.items() if k not in schema.EntryFile.model_fields}
-        seeds = None if entry.seeds is None else tuple(entry.seeds)
-        return entry.algorithm, entry.label, seeds, overrides
+        return entry.algorithm, entry.label, entry.seeds, overrides
     if isinstance(item, dict) and len(item) == 1:
         name, overrides = next(iter(item.items()))
         overrides = {} if overrides is None else overrides  # `- gaifo:` with nothing after

@@ -14,10 +14,9 @@ import pydantic
 from pydantic import BaseModel, ConfigDict, Field, JsonValue, model_validator
 
 from bench import validate
-from bench.suite.checks import Invalid
+from bench.suite.checks import Invalid, joined
 from bench.validate import show
 
-OBSERVATIONS = ("states", "pixels", "video-reward")
 NAME_PATTERN = r"^[A-Za-z0-9][A-Za-z0-9._-]*$"  # it becomes a folder name
 LABEL_PATTERN = r"^[A-Za-z0-9][A-Za-z0-9._=,+\[\]-]*$"  # as sweeps write them
 
@@ -38,13 +37,11 @@ SeedList = Annotated[list[Seed], Field(min_length=1), pydantic.AfterValidator(_d
 
 def _seeds(value: Any) -> Any:
     """A count (seeds 0..n-1) or a list of seeds; said once, not as two union branches."""
-    if isinstance(value, bool) or not isinstance(value, int | list):
+    if isinstance(value, list):
+        return value
+    if isinstance(value, bool) or not isinstance(value, int) or value < 1:
         raise ValueError(f"expected a seed count or a list of seeds, got {show(value)}")
-    if isinstance(value, int):
-        if value < 1:
-            raise ValueError(f"expected a seed count or a list of seeds, got {value}")
-        return list(range(value))
-    return value
+    return list(range(value))
 
 
 Seeds = Annotated[SeedList, pydantic.BeforeValidator(_seeds)]
@@ -131,20 +128,16 @@ def parse(model: type[BaseModel], raw: Any, key: str = "") -> Any:
     except pydantic.ValidationError as err:
         error = err.errors()[0]
         if "[key]" in error["loc"]:  # a mapping's key, not a value, is the problem
-            at = _join(key, validate.path(error["loc"][: error["loc"].index("[key]") - 1]))
+            at = joined(key, validate.path(error["loc"][: error["loc"].index("[key]") - 1]))
             raise Invalid(at, f"expected names as keys, got {show(error['input'])}") from None
         cause = (error.get("ctx") or {}).get("error")
         loc = (*error["loc"], *([cause.field] if isinstance(cause, _At) else []))
         problem = validate.setting_error({**error, "loc": loc})
-        at = _join(key, problem.field)
+        at = joined(key, problem.field)
         if error["type"] == "extra_forbidden":
             allowed = ", ".join(_model_at(model, list(error["loc"])[:-1]).model_fields)
             raise Invalid(at, f"unknown key (expected one of {allowed})") from None
         raise Invalid(at, problem.message) from None
-
-
-def _join(key: str, field: str) -> str:
-    return f"{key}{'' if field.startswith('[') else '.'}{field}" if key and field else key or field
 
 
 def _model_at(model: type[BaseModel], loc: list) -> type[BaseModel]:
