@@ -35,7 +35,8 @@ from bench.rl import absorbing
 from bench.rl.absorbing import Transitions
 from bench.rl.networks import ConvTrunk, DeterministicPolicy, PixelScale, RunningNorm, mlp
 from bench.rl.rollout import Batch, Rewards
-from bench.rl.trpo import TRPO, train
+from bench.rl.shared_trunk import make_trpo
+from bench.rl.trpo import train
 from bench.types import Demos
 
 REWARDS: dict[str, Callable[[torch.Tensor], torch.Tensor]] = {
@@ -219,13 +220,11 @@ def train_adversarial(
 
     `expert_actions`: (T_i, A) per demonstration, for a variant whose features use them (GAIL).
     """
-    learner = TRPO(task.obs_shape, task.act_dim, cfg, seed, task.device)
-    device = learner.device
-    to_device = lambda x: x.map(lambda a: torch.as_tensor(a, device=device))  # noqa: E731
+    learner = make_trpo(task.obs_shape, task.act_dim, cfg, seed)
     expert = expert_transitions(
         demos.observations, demos.terminated, expert_actions, cfg.absorbing, cfg.gamma
     )
-    expert_x = to_device(expert)
+    expert_x = expert.map(torch.as_tensor)
     if task.video is None:  # D sees what the policy sees, normalized alike
         seen, seen_dim, norm = task.pixels, task.obs_dim, learner.policy.norm
     else:  # D judges video filmed beside a state policy: frames of its own
@@ -236,12 +235,14 @@ def train_adversarial(
         )
     disc = Discriminator(
         norm, features, seen_dim, task.act_dim, cfg.disc_hidden, cfg.absorbing, seen
-    ).to(device)
+    )
     opt = torch.optim.Adam(disc.parameters(), lr=cfg.disc_lr)
     gen = torch.Generator().manual_seed(seed + 2)
     reward = REWARDS[cfg.reward]
     average = PolicyAverage(cfg.policy_average)
-    absorbing_probe = to_device(absorbing.tails(np.zeros((1, seen_dim)), task.act_dim, cfg.gamma))
+    absorbing_probe = absorbing.tails(np.zeros((1, seen_dim)), task.act_dim, cfg.gamma).map(
+        torch.as_tensor
+    )
 
     def reward_fn(batch: Batch) -> Rewards:
         real = batch_transitions(batch, task)
@@ -250,10 +251,10 @@ def train_adversarial(
         parts = [real]
         if cfg.absorbing and n_term:
             parts.append(absorbing.tails(real.next_obs[terminated], task.act_dim, cfg.gamma))
-        policy_x = to_device(Transitions.concat(parts))
+        policy_x = Transitions.concat(parts).map(torch.as_tensor)
         stats = discriminator_step(disc, opt, policy_x, expert_x, cfg, gen)
         with torch.no_grad():
-            r = reward(disc(policy_x)).cpu().numpy()
+            r = reward(disc(policy_x)).numpy()
         per_step = r[:n_real].reshape(batch.rewards.shape)
         stats["reward_mean"] = float(per_step.mean())
         stats["terminations"] = float(n_term)

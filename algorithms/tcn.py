@@ -35,7 +35,8 @@ from bench.learners import deterministic, one_batch, report_each_update
 from bench.registry import Logger, Policy, Task, register
 from bench.rl.networks import ObsShape, body, normalizer
 from bench.rl.rollout import Batch, Rewards
-from bench.rl.trpo import TRPO, TRPOConfig
+from bench.rl.shared_trunk import make_trpo
+from bench.rl.trpo import TRPOConfig
 from bench.rl.trpo import train as trpo_train
 from bench.types import Demos
 from bench.validate import above, at_least
@@ -191,6 +192,6 @@ def train(
         seed,
         reward_fn=reward_fn,
         callback=report_each_update(task, logger),
-        learner=TRPO(task.obs_shape, task.act_dim, cfg, seed, task.device),
+        learner=make_trpo(task.obs_shape, task.act_dim, cfg, seed),
     )
     return deterministic(learner, task)

@@ -1,7 +1,7 @@
 """What an algorithm built on TRPO needs from the harness, built-in or plugin: the imitators'
 TRPO settings (extend `ImitationTRPOConfig` and the controls stay matched), the averaged
 policy the runner evaluates, the per-update report, and `trpo_on_reward`, which runs all of it
-on a reward of the algorithm's own (on the task's device, from states or frames alike)."""
+on a reward of the algorithm's own (from states or frames alike)."""
 
 from __future__ import annotations
 
@@ -13,6 +13,7 @@ import torch
 from bench.registry import Logger, Task
 from bench.rl.networks import DeterministicPolicy, GaussianPolicy
 from bench.rl.rollout import Batch, RewardFn
+from bench.rl.shared_trunk import make_trpo
 from bench.rl.trpo import TRPO, Callback, TRPOConfig, train
 
 
@@ -112,6 +113,6 @@ def trpo_on_reward(
         seed,
         reward_fn=reward_fn,
         callback=report_each_update(task, logger, average=average),
-        learner=TRPO(task.obs_shape, task.act_dim, config, seed, task.device),
+        learner=make_trpo(task.obs_shape, task.act_dim, config, seed),
     )
     return average.policy(learner, task)

@@ -69,8 +69,6 @@ class Task:
     action_high: np.ndarray
     make_env: Callable[[int], gym.Env]
     """make_env(seed) -> a fresh env whose every step counts against the trial's budget."""
-    device: str = "cpu"
-    """Where networks live; "cuda" when the runner was asked for a GPU."""
     pixels: PixelConfig | None = None
     """None: observations are the env's state vectors. Else they are (obs_dim,) uint8 flat
     stacks of rendered frames, `obs.reshape(-1, *pixels.shape)` their (C, H, W) images."""

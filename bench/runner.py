@@ -41,13 +41,13 @@ def pending(specs: list[TrialSpec], have: dict[str, str], retry_failed: bool) ->
 
 
 def _jobs(
-    specs: list[TrialSpec], costs: CostModel, device: str, tensorboard: str | Path | None = None
+    specs: list[TrialSpec], costs: CostModel, tensorboard: str | Path | None = None
 ) -> Iterator:
     remaining = list(specs)
     while remaining:  # a generator: the next trial is chosen (and loaded) as a worker frees up
         spec = max(remaining, key=costs.priority)  # first of equals: suite order
         remaining.remove(spec)
-        yield joblib.delayed(run_trial)(spec, plan(spec).inputs(), device, tensorboard)
+        yield joblib.delayed(run_trial)(spec, plan(spec).inputs(), tensorboard)
 
 
 def run_suite(
@@ -57,7 +57,6 @@ def run_suite(
     backend: str = "loky",
     scheduler: str | None = None,
     retry_failed: bool = False,
-    device: str = "cpu",
     progress: bool = True,
     tensorboard: str | Path | None = None,
 ) -> RunSummary:
@@ -99,7 +98,7 @@ def run_suite(
             parallel = joblib.Parallel(
                 n_jobs=jobs, return_as="generator_unordered", pre_dispatch="n_jobs"
             )
-            for result in parallel(_jobs(todo, costs, device, tensorboard)):
+            for result in parallel(_jobs(todo, costs, tensorboard)):
                 if result.policy is not None:  # before the record: a record implies its policy
                     policies.write(results_dir, result.trial_id, result.policy)
                 store.write(results_dir, result)

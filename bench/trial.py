@@ -134,7 +134,7 @@ class Plan:
             return VideoBeside(envs.make(self.spec.env_id, seed, self.beside))
         return envs.make(self.spec.env_id, seed, self.pixels)
 
-    def task(self, tally: list[int], device: str = "cpu") -> registry.Task:
+    def task(self, tally: list[int]) -> registry.Task:
         """The trial's Task: its envs count every step into `tally[0]` and stop past the
         budget."""
         obs_dim, act_dim, low, high = envs.spaces(self.spec.env_id, self.pixels)
@@ -146,7 +146,6 @@ class Plan:
             low,
             high,
             make_env=lambda s: StepCounter(self.make_env(s), tally, budget),
-            device=device,
             pixels=self.pixels,
             video=self.beside,
         )
@@ -191,9 +190,7 @@ def expert_distance(spec: TrialSpec, visited: list[np.ndarray]) -> float | None:
     return state_match.state_distance(np.concatenate(visited), expert_states)
 
 
-def run_trial(
-    spec: TrialSpec, inputs: Any, device: str = "cpu", tensorboard: str | Path | None = None
-) -> TrialResult:
+def run_trial(spec: TrialSpec, inputs: Any, tensorboard: str | Path | None = None) -> TrialResult:
     """Train `spec.algorithm` and evaluate it; never raises (a failure is a failed record).
     With `tensorboard`, every scalar it logs is also written there as it comes (`event_dir`)."""
     torch.set_num_threads(1)  # joblib workers share the cores: one thread each
@@ -215,7 +212,7 @@ def run_trial(
             returns, reference = minari_io.expert_reference(minari_io.open_dataset(spec.dataset))
         else:
             eval_envs += [trial.make_env(eval_seed + i) for i in range(min(10, spec.eval_episodes))]
-            task = trial.task(tally, device)
+            task = trial.task(tally)
             config = algo.make_config(spec.hyperparams)
             policy = algo.train(task, inputs, spec.budget, spec.seed, logger, config)
             visited: list[np.ndarray] | None = None if trial.pixels else []

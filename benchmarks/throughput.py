@@ -24,7 +24,8 @@ import torch
 
 from bench import envs
 from bench.pixels import PixelConfig
-from bench.rl.trpo import TRPO, TRPOConfig, train
+from bench.rl.shared_trunk import make_trpo
+from bench.rl.trpo import TRPOConfig, train
 
 
 def raw_steps_per_s(env_id: str, steps: int, pixels: PixelConfig | None = None) -> float:
@@ -52,7 +53,7 @@ def trpo_steps_per_s(env_id: str, steps: int, pixels: PixelConfig | None = None)
         steps,
         seed=0,
         callback=lambda n, *_: timings.append((n, time.perf_counter() - start)),
-        learner=TRPO(obs_dim if pixels is None else pixels.shape, act_dim, cfg, 0),
+        learner=make_trpo(obs_dim if pixels is None else pixels.shape, act_dim, cfg, 0),
     )
     # Skip the first update: env construction and first-call costs are not throughput.
     (n0, t0), (n1, t1) = timings[0], timings[-1]

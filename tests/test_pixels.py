@@ -7,7 +7,8 @@ from bench.experts import load_expert
 from bench.pixels import PixelConfig, VideoBeside
 from bench.rl.networks import GaussianPolicy
 from bench.rl.rollout import VecCollector
-from bench.rl.trpo import TRPO, TRPOConfig, mean_kl, policy_step
+from bench.rl.shared_trunk import SharedTrunkTRPO, make_trpo, mean_kl
+from bench.rl.trpo import TRPO, TRPOConfig, policy_step
 from bench.runner import run_suite
 from bench.suite import expand, load_suite
 from bench.types import Demos
@@ -194,7 +195,8 @@ def _unchanged(before: list[torch.Tensor], module: torch.nn.Module) -> bool:
 def test_from_frames_the_value_loss_trains_the_trunk_and_trpo_moves_the_head():
     cfg = PixelConfig(size=32, stack=2)
     collector = VecCollector([envs.make(PENDULUM, s, cfg) for s in range(2)], 0)
-    learner = TRPO(cfg.shape, 1, TRPOConfig(n_envs=2, steps_per_env=64, vf_epochs=1), seed=0)
+    learner = make_trpo(cfg.shape, 1, TRPOConfig(n_envs=2, steps_per_env=64, vf_epochs=1), seed=0)
+    assert isinstance(learner, SharedTrunkTRPO)
     policy = learner.policy
     assert learner.value.net[0] is policy.trunk  # one trunk, two heads
     batch = collector.collect(policy, 64)
@@ -204,7 +206,9 @@ def test_from_frames_the_value_loss_trains_the_trunk_and_trpo_moves_the_head():
     grads: list[torch.Tensor] = []
     hooks = [p.register_hook(grads.append) for p in policy.trunk.parameters()]
     obs, actions = torch.from_numpy(batch.flat("obs")), torch.from_numpy(batch.flat("actions"))
-    info = policy_step(policy, obs, actions, torch.randn(len(obs)), learner.cfg)
+    with torch.no_grad():
+        features = policy.features(obs)
+    info = policy_step(policy, features, actions, torch.randn(len(obs)), learner.cfg)
     assert info["step_frac"] > 0 and not grads  # the policy step never reaches the trunk
     assert _unchanged(trunk, policy.trunk) and not _unchanged(head, policy.mean_net)
     for hook in hooks:
@@ -217,7 +221,7 @@ def test_from_frames_the_value_loss_trains_the_trunk_and_trpo_moves_the_head():
 def test_a_trunk_step_that_moves_the_policy_too_far_is_backtracked_into_the_trust_region():
     cfg = PixelConfig(size=32, stack=2)
     collector = VecCollector([envs.make(PENDULUM, s, cfg) for s in range(2)], 0)
-    learner = TRPO(cfg.shape, 1, TRPOConfig(n_envs=2, steps_per_env=64), seed=0)
+    learner = SharedTrunkTRPO(cfg.shape, 1, TRPOConfig(n_envs=2, steps_per_env=64), seed=0)
     policy = learner.policy
     with torch.no_grad():  # a policy whose mean actions depend on the frames
         for p in policy.mean_net.parameters():
@@ -241,3 +245,9 @@ def test_a_trunk_step_that_moves_the_policy_too_far_is_backtracked_into_the_trus
     assert 0 <= held["trunk_step_frac"] < 1 and held["trunk_kl"] <= learner.cfg.max_kl
     with torch.no_grad():
         assert mean_kl(policy, old_mean, policy(obs)).item() == pytest.approx(held["trunk_kl"])
+
+
+def test_plain_trpo_refuses_frames_it_would_not_train_the_trunk_of():
+    with pytest.raises(ValueError, match="make_trpo"):
+        TRPO(PixelConfig(size=32, stack=2).shape, 1, TRPOConfig(), seed=0)
+    assert type(make_trpo(5, 1, TRPOConfig(), seed=0)) is TRPO

@@ -36,7 +36,6 @@ def _run(args: argparse.Namespace) -> int:
             backend=backend,
             scheduler=args.scheduler,
             retry_failed=args.retry_failed,
-            device=args.device,
             tensorboard=args.tensorboard,
         )
     print(
@@ -139,8 +138,5 @@ def add(sub: argparse._SubParsersAction) -> None:
         type=folder,
         help="also write every trial's logged scalars there as TensorBoard events, live"
         " (tensorboard --logdir DIR)",
-    )
-    run.add_argument(
-        "--device", default="cpu", help="torch device for networks, e.g. cuda (default cpu)"
     )
     run.set_defaults(func=_run)

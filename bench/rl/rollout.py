@@ -98,15 +98,12 @@ class VecCollector:
 
     def collect(self, policy: GaussianPolicy, steps_per_env: int) -> Batch:
         """A batch from the Gaussian policy: a ~ N(policy(s), exp(log_std)), one forward per step."""
-        device = policy.log_std.device
         std = policy.log_std.detach().exp()
 
         @torch.no_grad()
         def sample(obs: np.ndarray) -> np.ndarray:
-            mean = policy(torch.from_numpy(obs).to(device))
-            return (
-                (mean + std * torch.randn(mean.shape, generator=self.gen).to(device)).cpu().numpy()
-            )
+            mean = policy(torch.from_numpy(obs))
+            return (mean + std * torch.randn(mean.shape, generator=self.gen)).numpy()
 
         return self.run(sample, steps_per_env)
 

@@ -118,10 +118,10 @@ class ReplayBuffer:
         self.cursor = int(rows[-1] + 1) % self.size
         self.count = min(self.count + len(obs), self.size)
 
-    def sample(self, n: int, device: str = "cpu") -> ReplayBatch:
+    def sample(self, n: int) -> ReplayBatch:
         idx = self.rng.integers(self.count, size=n)
         fields = (self.obs, self.actions, self.next_obs, self.env_rewards, self.not_done)
-        return ReplayBatch(*(torch.from_numpy(x[idx]).to(device) for x in fields))
+        return ReplayBatch(*(torch.from_numpy(x[idx]) for x in fields))
 
 
 def flagged(obs: np.ndarray, absorbing: bool = False) -> np.ndarray:

@@ -16,7 +16,6 @@ from dataclasses import dataclass
 import gymnasium as gym
 import numpy as np
 import torch
-from torch import nn
 
 from bench.rl.networks import ConvTrunk, GaussianPolicy, ObsShape, RunningNorm, ValueNet
 from bench.rl.rollout import Batch, RewardFn, Rewards, VecCollector
@@ -124,24 +123,19 @@ def conjugate_gradient(
 
 def policy_step(
     policy: GaussianPolicy,
-    obs: torch.Tensor,
+    features: torch.Tensor,
     actions: torch.Tensor,
     adv: torch.Tensor,
     cfg: TRPOConfig,
-    features: torch.Tensor | None = None,
 ) -> dict[str, float]:
     """One natural-gradient step on the surrogate advantage inside the KL trust region.
 
-    It moves the policy's head only: from frames, the conv trunk it shares with the value
-    function learns from the value loss (as in PPO's Atari networks), since a trust region
-    of 0.01 nats spread over every conv weight starves the features of learning. The trunk's
-    features are therefore fixed during the step, and computed once (`features`: given
-    already, as `policy.features(obs)`).
+    `features`: `policy.features(obs)`, what the mean's MLP reads. The step moves the policy's
+    head only (from frames, the conv trunk learns with the value function: see
+    `bench.rl.shared_trunk`), so the features stay fixed during it and are computed once.
     """
     params = [p for p in policy.head_parameters() if p.requires_grad]
     with torch.no_grad():
-        if features is None:
-            features = policy.features(obs)
         old_mean = policy.mean_net(features)
         old_log_std = policy.log_std.detach().clone()
         old_logp = policy.log_prob(old_mean, actions)
@@ -190,45 +184,20 @@ def policy_step(
     return {"kl": 0.0, "improvement": 0.0, "expected": expected, "step_frac": 0.0}
 
 
-CLONE_WEIGHT = 1.0
-"""Weight of the policy-keeping KL in the value loss when the two share a trunk (Phasic Policy
-Gradient's behavioural-cloning weight, beta_clone = 1)."""
-
-
-def mean_kl(policy: GaussianPolicy, old_mean: torch.Tensor, mean: torch.Tensor) -> torch.Tensor:
-    """Mean KL(old || new) between two Gaussians of the same std that differ in their means."""
-    return (
-        ((mean - old_mean).square() / (2 * torch.exp(2 * policy.log_std.detach()))).sum(-1).mean()
-    )
-
-
 def value_step(
-    value: ValueNet,
     opt: torch.optim.Optimizer,
-    obs: torch.Tensor,
-    targets: torch.Tensor,
+    n: int,
+    loss_of: Callable[[torch.Tensor], torch.Tensor],
     cfg: TRPOConfig,
     gen: torch.Generator,
-    keep: tuple[GaussianPolicy, torch.Tensor] | None = None,
 ) -> float:
-    """Value regression. With `keep` = (policy, its mean actions on `obs`), for a policy that
-    shares the value's trunk: the trunk then also pays the KL by which it would move the policy,
-    so value learning does not change the policy outside TRPO's trust region. One trunk pass
-    per minibatch feeds both heads."""
-    n = obs.shape[0]
+    """Value regression: `cfg.vf_epochs` passes over `n` samples in shuffled minibatches, each
+    a step of `opt` on `loss_of(minibatch indices)`. Returns the last minibatch's loss."""
     loss = torch.zeros(())
     for _ in range(cfg.vf_epochs):
         perm = torch.randperm(n, generator=gen)
         for start in range(0, n, cfg.vf_minibatch):
-            idx = perm[start : start + cfg.vf_minibatch]
-            if keep is None:
-                loss = (value(obs[idx]) - targets[idx]).square().mean()
-            else:
-                policy, old_mean = keep
-                features = policy.features(obs[idx])
-                loss = (value.head(features) - targets[idx]).square().mean()
-                clone = mean_kl(policy, old_mean[idx], policy.mean_net(features))
-                loss = loss + CLONE_WEIGHT * clone
+            loss = loss_of(perm[start : start + cfg.vf_minibatch])
             opt.zero_grad()
             loss.backward()
             opt.step()
@@ -236,27 +205,27 @@ def value_step(
 
 
 class TRPO:
-    """Policy, value function and their optimizer state; `update` consumes one Batch."""
+    """Policy, value function and their optimizer state; `update` consumes one Batch.
 
-    def __init__(
-        self, obs_shape: ObsShape, act_dim: int, cfg: TRPOConfig, seed: int, device: str = "cpu"
-    ) -> None:
-        """`obs_shape`: O for state vectors, (C, H, W) for flat frames (`Task.obs_shape`).
-        `device`: where the networks live (rollouts always step on the CPU). Not part of the
-        config, so that where a trial ran never changes what it is."""
+    From states. From frames, the policy and the value share a conv trunk, which needs its
+    own value step: `bench.rl.shared_trunk.make_trpo` picks the learner for a task's
+    observations."""
+
+    def __init__(self, obs_shape: ObsShape, act_dim: int, cfg: TRPOConfig, seed: int) -> None:
+        """`obs_shape`: O for state vectors, (C, H, W) for flat frames (`Task.obs_shape`)."""
         torch.manual_seed(seed)
         self.cfg = cfg
-        self.device = torch.device(device)
-        self.policy = GaussianPolicy(obs_shape, act_dim, cfg.hidden, cfg.init_log_std).to(
-            self.device
-        )
-        trunk = self.policy.trunk if isinstance(self.policy.trunk, ConvTrunk) else None
-        self.shared_trunk = trunk is not None
-        self.value = ValueNet(self.policy.norm, obs_shape, cfg.hidden, trunk).to(self.device)
+        self.policy = GaussianPolicy(obs_shape, act_dim, cfg.hidden, cfg.init_log_std)
+        self.value = self.value_net(obs_shape)
         self.vf_opt = torch.optim.Adam(self.value.net.parameters(), lr=cfg.vf_lr)
         self.gen = torch.Generator().manual_seed(seed + 1)
         self.return_norm = RunningNorm(1)
         self.discounted: np.ndarray | None = None  # running discounted return per env
+
+    def value_net(self, obs_shape: ObsShape) -> ValueNet:
+        if isinstance(self.policy.trunk, ConvTrunk):
+            raise ValueError("from frames, build the learner with shared_trunk.make_trpo")
+        return ValueNet(self.policy.norm, obs_shape, self.cfg.hidden)
 
     def state_dict(self) -> dict:
         """Everything `update` carries from one batch to the next (tensors and plain numbers
@@ -314,15 +283,12 @@ class TRPO:
             std = self.reward_scale(rewards, batch.terminated | batch.truncated, final)
             rewards = (rewards / std).astype(np.float32)
             after = None if after is None else (after / std).astype(np.float32)
-        obs = torch.from_numpy(batch.flat("obs")).to(self.device)
-        next_obs = torch.from_numpy(batch.flat("next_obs")).to(self.device)
+        obs = torch.from_numpy(batch.flat("obs"))
+        next_obs = torch.from_numpy(batch.flat("next_obs"))
         with torch.no_grad():
-            # A shared trunk's features of `obs` serve the values, the policy step and the
-            # means to keep: the policy step leaves the trunk as it is.
-            features = self.policy.features(obs) if self.shared_trunk else None
-            values = self.value(obs) if features is None else self.value.head(features)
-            values = values.cpu().numpy().reshape(T, E)
-            next_values = self.value(next_obs).cpu().numpy().reshape(T, E)
+            features = self.policy.features(obs)
+            values = self.state_values(obs, features).numpy().reshape(T, E)
+            next_values = self.value(next_obs).numpy().reshape(T, E)
         adv, targets = gae(
             rewards.astype(np.float32),
             values,
@@ -333,51 +299,23 @@ class TRPO:
             cfg.gae_lambda,
             after,
         )
-        adv_t = torch.from_numpy(adv.reshape(-1)).to(self.device)
+        adv_t = torch.from_numpy(adv.reshape(-1))
         adv_t = (adv_t - adv_t.mean()) / (adv_t.std() + 1e-8)
-        actions = torch.from_numpy(batch.flat("actions")).to(self.device)
-        info = policy_step(self.policy, obs, actions, adv_t, cfg, features)
-        keep = None
-        if features is not None:
-            with torch.no_grad():
-                keep = (self.policy, self.policy.mean_net(features))
-            trunk_before = nn.utils.parameters_to_vector(self.policy.trunk.parameters()).detach()
-        info["vf_loss"] = value_step(
-            self.value,
-            self.vf_opt,
-            obs,
-            torch.from_numpy(targets.reshape(-1)).to(self.device),
-            cfg,
-            self.gen,
-            keep,
-        )
-        if keep is not None:
-            info.update(self.hold_trunk(obs, keep[1], trunk_before))
+        actions = torch.from_numpy(batch.flat("actions"))
+        info = policy_step(self.policy, features, actions, adv_t, cfg)
+        info.update(self.fit_value(obs, features, torch.from_numpy(targets.reshape(-1))))
         return info
 
-    @torch.no_grad()
-    def hold_trunk(
-        self, obs: torch.Tensor, old_mean: torch.Tensor, before: torch.Tensor
+    def state_values(self, obs: torch.Tensor, features: torch.Tensor) -> torch.Tensor:
+        """V(obs); `features` are the policy's of `obs`, for a value that shares them."""
+        return self.value(obs)
+
+    def fit_value(
+        self, obs: torch.Tensor, features: torch.Tensor, targets: torch.Tensor
     ) -> dict[str, float]:
-        """Keep the shared trunk's value-learning step inside the trust region: if it moved the
-        policy's mean actions on `obs` (from `old_mean`) by a KL above max_kl, halve the step
-        (TRPO's backtracking) until it does not, or undo it. The cloning term keeps that KL
-        small on most updates; this bounds the others (~6% of a pixel InvertedPendulum run's;
-        one drift of 4x the trust region was followed by a balanced pendulum falling for good)."""
-        trunk = list(self.policy.trunk.parameters())
-        after = nn.utils.parameters_to_vector(trunk)
-        kl = mean_kl(self.policy, old_mean, self.policy(obs)).item()
-        moved = kl
-        frac = 1.0
-        while kl > self.cfg.max_kl:
-            frac /= 2
-            if frac < 0.5**self.cfg.line_search_steps:
-                frac, kl = 0.0, 0.0
-                nn.utils.vector_to_parameters(before, trunk)
-                break
-            nn.utils.vector_to_parameters(before + frac * (after - before), trunk)
-            kl = mean_kl(self.policy, old_mean, self.policy(obs)).item()
-        return {"trunk_kl": kl, "trunk_kl_before_hold": moved, "trunk_step_frac": frac}
+        """Regress V(obs) on `targets`, after the policy step."""
+        loss_of = lambda idx: (self.value(obs[idx]) - targets[idx]).square().mean()  # noqa: E731
+        return {"vf_loss": value_step(self.vf_opt, len(obs), loss_of, self.cfg, self.gen)}
 
 
 Callback = Callable[[int, TRPO, Batch, dict[str, float]], None]
@@ -392,7 +330,6 @@ def train(
     reward_fn: RewardFn | None = None,
     callback: Callback | None = None,
     learner: TRPO | None = None,
-    device: str = "cpu",
 ) -> TRPO:
     """Run TRPO for at most `budget` env steps (whole batches only) and return the learner.
 
@@ -408,7 +345,7 @@ def train(
     envs = [make_env(seed * 1000 + i) for i in range(cfg.n_envs)]
     obs_dim = int(np.prod(envs[0].observation_space.shape))
     act_dim = int(np.prod(envs[0].action_space.shape))
-    learner = learner or TRPO(obs_dim, act_dim, cfg, seed, device)
+    learner = learner or TRPO(obs_dim, act_dim, cfg, seed)
     collector = VecCollector(envs, seed * 1000)
     steps = 0
     try:
