@@ -1,6 +1,7 @@
-"""The report's parts as markdown: tables from the statistics' frames, and the sections that
-explain them. Pure text: nothing here computes a statistic (`bench.comparisons`) or draws
-(`bench.plot`)."""
+"""The report's parts as markdown: tables from the statistics' frames (and `bench plot`'s
+table of the normalized frame), and the sections that explain them. Pure text: nothing here
+computes a statistic (`bench.comparisons`) or draws (`bench.plot`). Each table is a frame of
+display strings, rendered by `table`."""
 
 from __future__ import annotations
 
@@ -12,7 +13,7 @@ import pandas as pd
 
 from bench import labels
 from bench.comparisons import POOLED
-from bench.normalize import EXPERT, ORACLE, RANDOM
+from bench.normalize import EXPERT, ORACLE, RANDOM, REFERENCES
 
 MAX_LISTED = 20
 """Failed trials named one by one in the header; the rest are counted."""
@@ -28,24 +29,23 @@ def aggregate_table(aggregates: pd.DataFrame, action_users: Collection[str] = ()
     header = ["algorithm", "runs (seeds × envs)"] + [
         f"{METRIC_LABELS[m]} [95% CI]" for m in metrics
     ]
-    lines = [row(header), "|" + "---|" * len(header)]
     cells = aggregates.set_index(["algorithm", "metric"])
+    rows = []
     for a in labels.in_order(aggregates["algorithm"]):
         first = cells.loc[(a, metrics[0])]
         runs = f"{int(first['seeds'])} × {int(first['envs'])}"
         values = [interval(*cells.loc[(a, m), ["estimate", "lo", "hi"]]) for m in metrics]
-        lines.append(row([labels.algorithm_label(a, action_users), runs, *values]))
-    return "\n".join(lines) + "\n"
+        rows.append([labels.algorithm_label(a, action_users), runs, *values])
+    return table(pd.DataFrame(rows, columns=header)) + "\n"
 
 
 def improvement_table(improvement: pd.DataFrame, action_users: Collection[str] = ()) -> str:
     """Markdown: P(a > b) [95% CI], a row per (algorithm, other) pair of `improvement`."""
-    lines = [row(["comparison", "P(improvement) [95% CI]"]), "|---|---|"]
-    for r in improvement.itertuples():
-        lines.append(
-            row([pair_label(r.algorithm, r.other, action_users), interval(r.estimate, r.lo, r.hi)])
-        )
-    return "\n".join(lines) + "\n"
+    rows = [
+        [pair_label(r.algorithm, r.other, action_users), interval(r.estimate, r.lo, r.hi)]
+        for r in improvement.itertuples()
+    ]
+    return table(pd.DataFrame(rows, columns=["comparison", "P(improvement) [95% CI]"])) + "\n"
 
 
 def pair_label(a: str, b: str, action_users: Collection[str]) -> str:
@@ -59,7 +59,6 @@ def compare_table(
     their difference and the verdict (stats.compare); then how many rows agree."""
     header = ["env", "algorithm", "demos", f"run ({run})", f"reference ({reference})"]
     header += ["run - ref [95% CI]", "verdict"]
-    lines = [row(header), "|" + "---|" * len(header)]
     envs, algorithms = (
         labels.env_order(comparison["env_id"]),
         labels.in_order(comparison["algorithm"]),
@@ -72,22 +71,21 @@ def compare_table(
             else col
         ),
     )
-    for _, r in ordered.iterrows():
-        lines.append(
-            row(
-                [
-                    labels.env_label(r["env_id"]),
-                    labels.algorithm_label(r["algorithm"], action_users),
-                    r["n_demos"],
-                    interval(r["run_iqm"], r["run_lo"], r["run_hi"]) + f" ({r['run_seeds']})",
-                    interval(r["ref_iqm"], r["ref_lo"], r["ref_hi"]) + f" ({r['ref_seeds']})",
-                    interval(r["diff"], r["diff_lo"], r["diff_hi"]),
-                    "**differs**" if r["verdict"] == "differs" else "agrees",
-                ]
-            )
-        )
+    rows = [
+        [
+            labels.env_label(r["env_id"]),
+            labels.algorithm_label(r["algorithm"], action_users),
+            str(r["n_demos"]),
+            interval(r["run_iqm"], r["run_lo"], r["run_hi"]) + f" ({r['run_seeds']})",
+            interval(r["ref_iqm"], r["ref_lo"], r["ref_hi"]) + f" ({r['ref_seeds']})",
+            interval(r["diff"], r["diff_lo"], r["diff_hi"]),
+            "**differs**" if r["verdict"] == "differs" else "agrees",
+        ]
+        for _, r in ordered.iterrows()
+    ]
     agree = int((comparison["verdict"] == "agrees").sum())
-    lines += [
+    lines = [
+        table(pd.DataFrame(rows, columns=header)),
         "",
         f"{agree} of {len(comparison)} rows agree. IQM of normalized returns over seeds (seed"
         " count in parentheses), both"
@@ -127,8 +125,8 @@ def header(df: pd.DataFrame, results_dir: Path) -> str:
         ("env steps", f"{int(df['env_steps'].sum()):,} of training, summed over trials"),
         ("wall time", f"{duration(df['wall_time'].sum())} summed over trials"),
     ]
-    lines = [f"# ifo-bench report: {suites}", "", "| | |", "|---|---|"]
-    lines += [row(r) for r in rows]
+    # A key-value table: blank column names, as the keys say what each row is.
+    lines = [f"# ifo-bench report: {suites}", "", table(pd.DataFrame(rows, columns=["", ""]))]
     if len(failed):
         lines += ["", "Failed trials, left out of every statistic:", ""]
         lines += [
@@ -196,28 +194,30 @@ def at_a_glance(
         return ""
     counts = sorted(aggregates["n_demos"].unique())
     columns = [labels.demos_label(n) for n in counts]
-    rule = "|" + "---|" * (1 + len(counts))
-    lines = ["## At a glance", "", row(["IQM [95% CI]", *columns]), rule]
     iqm = aggregates[aggregates["metric"] == "iqm"].set_index(["algorithm", "n_demos"])
-    for a in labels.in_order(aggregates["algorithm"]):
-        cells = [
-            interval(*iqm.loc[(a, n), ["estimate", "lo", "hi"]]) if (a, n) in iqm.index else ""
-            for n in counts
-        ]
-        lines.append(row([labels.algorithm_label(a, action_users), *cells]))
+    rows = [
+        [labels.algorithm_label(a, action_users), *by_count(iqm, (a,), counts)]
+        for a in labels.in_order(aggregates["algorithm"])
+    ]
+    lines = ["## At a glance", "", table(pd.DataFrame(rows, columns=["IQM [95% CI]", *columns]))]
     if len(improvement):
         pi = improvement.set_index(["algorithm", "other", "n_demos"])
-        lines += ["", row(["P(improvement) [95% CI]", *columns]), rule]
         pairs = dict.fromkeys(zip(improvement["algorithm"], improvement["other"], strict=True))
-        for a, b in pairs:
-            cells = [
-                interval(*pi.loc[(a, b, n), ["estimate", "lo", "hi"]])
-                if (a, b, n) in pi.index
-                else ""
-                for n in counts
-            ]
-            lines.append(row([pair_label(a, b, action_users), *cells]))
+        rows = [[pair_label(a, b, action_users), *by_count(pi, (a, b), counts)] for a, b in pairs]
+        header = ["P(improvement) [95% CI]", *columns]
+        lines += ["", table(pd.DataFrame(rows, columns=header))]
     return "\n".join(lines)
+
+
+def by_count(frame: pd.DataFrame, key: tuple, counts: Sequence[int]) -> list[str]:
+    """`estimate [lo, hi]` of `frame` (indexed by `key` and then the demo count) at each of
+    `counts`; blank where it has none."""
+    return [
+        interval(*frame.loc[(*key, n), ["estimate", "lo", "hi"]])
+        if (*key, n) in frame.index
+        else ""
+        for n in counts
+    ]
 
 
 def references(df: pd.DataFrame) -> str:
@@ -230,9 +230,8 @@ def references(df: pd.DataFrame) -> str:
         "(each seed's return is itself a mean over evaluation episodes): "
         "the 0 and 1 of every normalized score.",
         "",
-        "| env | random | expert |",
-        "|---|---|---|",
     ]
+    rows = []
     for env_id in labels.env_order(df["env_id"].unique()):
         cells = []
         for a in (RANDOM, EXPERT):
@@ -243,7 +242,8 @@ def references(df: pd.DataFrame) -> str:
             seeds = f"{int(r['size'])} seed" + ("s" if r["size"] != 1 else "")
             spread = "" if pd.isna(r["std"]) else f" ± {r['std']:.1f}"
             cells.append(f"{r['mean']:.1f}{spread} ({seeds})")
-        lines.append(row([labels.env_label(env_id), *cells]))
+        rows.append([labels.env_label(env_id), *cells])
+    lines.append(table(pd.DataFrame(rows, columns=["env", "random", "expert"])))
     return "\n".join(lines)
 
 
@@ -257,28 +257,60 @@ def costs(df: pd.DataFrame) -> str:
         "trials; a trial never uses more than one core. Total core-hours of a bigger run = "
         "trials x wall time.",
         "",
-        "| env | algorithm | budget (env steps) | trials | wall time per trial | core-hours |",
-        "|---|---|---:|---:|---:|---:|",
     ]
     starred = labels.action_users(df)
+    rows = []
     for env_id in labels.env_order(ok["env_id"].unique()):
-        rows = ok[ok["env_id"] == env_id]
-        for algorithm in labels.in_order(rows["algorithm"]):
-            cell = rows[rows["algorithm"] == algorithm]
+        trials = ok[ok["env_id"] == env_id]
+        for algorithm in labels.in_order(trials["algorithm"]):
+            cell = trials[trials["algorithm"] == algorithm]
             budget = ", ".join(f"{b:,}" for b in sorted(cell["budget"].unique()))
-            lines.append(
-                row(
-                    [
-                        labels.env_label(env_id),
-                        labels.algorithm_label(algorithm, starred),
-                        budget,
-                        len(cell),
-                        duration(cell["wall_time"].mean()),
-                        f"{cell['wall_time'].sum() / 3600:.2f}",
-                    ]
-                )
+            rows.append(
+                [
+                    labels.env_label(env_id),
+                    labels.algorithm_label(algorithm, starred),
+                    budget,
+                    str(len(cell)),
+                    duration(cell["wall_time"].mean()),
+                    f"{cell['wall_time'].sum() / 3600:.2f}",
+                ]
             )
+    header = [
+        "env",
+        "algorithm",
+        "budget (env steps)",
+        "trials",
+        "wall time per trial",
+        "core-hours",
+    ]
+    lines.append(table(pd.DataFrame(rows, columns=header), right=header[2:]))
     return "\n".join(lines)
+
+
+def summary_table(df: pd.DataFrame) -> str:
+    """Markdown: normalized mean ± std over seeds, a row per env and algorithm, a column per
+    demo count (`df`: the normalized frame, as Figure 2 draws it); then the actions footnote
+    where an algorithm is starred."""
+    agg = df.groupby(["env_id", "algorithm", "n_demos"])["normalized"].agg(["mean", "std"])
+    cells = agg.apply(lambda r: mean_std(r["mean"], r["std"]), axis=1)
+    cells = cells.unstack("n_demos", fill_value="")
+    demos = sorted(df["n_demos"].unique())
+    algos = labels.algorithm_order(df["algorithm"].unique()) + [
+        a for a in REFERENCES if a in set(df["algorithm"])
+    ]
+    starred = labels.action_users(df)
+    rows = [
+        [labels.env_label(env_id), labels.algorithm_label(a, starred)]
+        + cells.loc[(env_id, a), demos].tolist()
+        for env_id in labels.env_order(df["env_id"].unique())
+        for a in algos
+        if (env_id, a) in cells.index
+    ]
+    header = ["env", "algorithm"] + [labels.demos_label(n) for n in demos]
+    lines = [table(pd.DataFrame(rows, columns=header))]
+    if starred:
+        lines += ["", labels.ACTIONS_FOOTNOTE]
+    return "\n".join(lines) + "\n"
 
 
 def env_table(
@@ -288,7 +320,7 @@ def env_table(
     `columns`, each cell `estimate [lo, hi]` (and the seed count of an env's IQM)."""
     cells = rows.set_index(["algorithm", "other", "env_id"])
     header = [title, *(e if e == POOLED else labels.env_label(e) for e in columns)]
-    lines = [row(header), "|" + "---|" * len(header)]
+    body = []
     for label, (a, b) in keys.items():
         values = []
         for env_id in columns:
@@ -298,16 +330,24 @@ def env_table(
             r = cells.loc[(a, b, env_id)]
             seeds = f" ({r['seeds']})" if not b and env_id != POOLED else ""
             values.append(interval(r["estimate"], r["lo"], r["hi"]) + seeds)
-        lines.append(row([label, *values]))
-    return "\n".join(lines)
+        body.append([label, *values])
+    return table(pd.DataFrame(body, columns=header))
 
 
 def interval(estimate: float, lo: float, hi: float) -> str:
     return f"{estimate:.2f} [{lo:.2f}, {hi:.2f}]"
 
 
-def row(cells: Sequence[object]) -> str:
-    return "| " + " | ".join(map(str, cells)) + " |"
+def mean_std(mean: float, std: float) -> str:
+    return f"{mean:.2f}" if pd.isna(std) else f"{mean:.2f} ± {std:.2f}"
+
+
+def table(cells: pd.DataFrame, right: Collection[str] = ()) -> str:
+    """`cells`, a frame of display strings, as a markdown table; the columns named in `right`
+    (numbers) right-aligned, the rest left-aligned."""
+    align = ["right" if c in right else "left" for c in cells.columns]
+    # No number parsing: the cells are already formatted ("0.010" must not become "0.01").
+    return cells.to_markdown(index=False, colalign=align, disable_numparse=True)
 
 
 def demos_title(n: int) -> str:

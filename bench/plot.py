@@ -1,4 +1,5 @@
-"""Figures and tables from the tidy normalized frame (store.load -> normalize).
+"""Figures, and the per-trial CSV beside them, from the tidy normalized frame (store.load ->
+normalize); the markdown table of the same means is `bench.markdown.summary_table`.
 
 Nothing here computes a statistic beyond grouping: means and standard
 deviations over seeds are seaborn's or pandas'. Figures are built on
@@ -26,7 +27,6 @@ from bench.labels import (
     action_users,
     algorithm_label,
     algorithm_order,
-    demos_label,
     env_label,
     env_order,
 )
@@ -221,30 +221,6 @@ def draw_performance_profile(
 # ---------------------------------------------------------------- tables
 
 
-def summary_table(df: pd.DataFrame) -> str:
-    """Markdown: normalized mean ± std over seeds, a row per env and algorithm, a column per demo count."""
-    agg = df.groupby(["env_id", "algorithm", "n_demos"])["normalized"].agg(["mean", "std"])
-    cells = agg.apply(lambda r: _mean_std(r["mean"], r["std"]), axis=1)
-    cells = cells.unstack("n_demos", fill_value="")
-    demos = sorted(df["n_demos"].unique())
-    algos = algorithm_order(df["algorithm"].unique()) + [
-        a for a in REFERENCES if a in set(df["algorithm"])
-    ]
-    starred = action_users(df)
-    header = ["env", "algorithm"] + [demos_label(n) for n in demos]
-    lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
-    for env_id in env_order(df["env_id"].unique()):
-        for a in algos:
-            if (env_id, a) not in cells.index:
-                continue
-            values = cells.loc[(env_id, a), demos].tolist()
-            label = algorithm_label(a, starred)
-            lines.append("| " + " | ".join([env_label(env_id), label, *values]) + " |")
-    if starred:
-        lines += ["", ACTIONS_FOOTNOTE]
-    return "\n".join(lines) + "\n"
-
-
 def write_summary_csv(df: pd.DataFrame, path: str | Path) -> Path:
     """One row per trial: env, algorithm, demos, seed, return, normalized."""
     path = Path(path)
@@ -337,7 +313,3 @@ def _legend_columns(entries: int, panels_across: int) -> int:
     per_row = min(8, 3 * panels_across)
     rows = math.ceil(entries / per_row)
     return math.ceil(entries / rows)
-
-
-def _mean_std(mean: float, std: float) -> str:
-    return f"{mean:.2f}" if pd.isna(std) else f"{mean:.2f} ± {std:.2f}"

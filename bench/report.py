@@ -102,7 +102,7 @@ def write_report(results_dir: Path, out_dir: Path | None = None, reps: int = 200
             "![Normalized return per env against number of demonstrations](figure2.png)\n\n"
             "Mean ± standard deviation over seeds, as in the figure.\n\n"
             # A line that starts with "* " would be a list item in markdown.
-            + plot.summary_table(df).replace(
+            + markdown.summary_table(df).replace(
                 labels.ACTIONS_FOOTNOTE, "\\" + labels.ACTIONS_FOOTNOTE
             )
         )
@@ -300,19 +300,15 @@ def _state_match_section(
         return "", pd.DataFrame()
     target = labels.algorithm_label(TARGET, starred)
     header = ["algorithm", "runs", "IQM distance [95% CI]", f"P({target} closer) [95% CI]"]
-    lines = [markdown.row(header), "|---|---|---|---|"]
-    for r in rows.itertuples():
-        p_closer = "" if pd.isna(r.p_closer) else markdown.interval(r.p_closer, r.p_lo, r.p_hi)
-        lines.append(
-            markdown.row(
-                [
-                    labels.algorithm_label(r.algorithm, starred),
-                    r.runs,
-                    markdown.interval(r.iqm, r.lo, r.hi),
-                    p_closer,
-                ]
-            )
-        )
+    cells = [
+        [
+            labels.algorithm_label(r.algorithm, starred),
+            str(r.runs),
+            markdown.interval(r.iqm, r.lo, r.hi),
+            "" if pd.isna(r.p_closer) else markdown.interval(r.p_closer, r.p_lo, r.p_hi),
+        ]
+        for r in rows.itertuples()
+    ]
     text = (
         f"## Distance to the expert's states, {markdown.demos_title(n).lower()}\n\n"
         "How far the states a policy visits in its evaluation episodes lie from the expert's "
@@ -320,7 +316,8 @@ def _state_match_section(
         "spread, averaged over dimensions; 0 = distributed alike, lower is closer). It sees "
         "imitation where the return cannot: a control that merely survives can score like the "
         f"expert while standing elsewhere. P({target} closer) is the probability that a "
-        f"{target} run is closer to the expert than a run of the other.\n\n" + "\n".join(lines)
+        f"{target} run is closer to the expert than a run of the other.\n\n"
+        + markdown.table(pd.DataFrame(cells, columns=header))
     )
     return text, rows
 

@@ -1,4 +1,5 @@
 import os
+import re
 import subprocess
 import sys
 
@@ -62,6 +63,38 @@ def on_dask():
             )
 
     return run
+
+
+@pytest.fixture(scope="session")
+def table_rows():
+    """`table_rows(text)`: see `_table_rows`."""
+    return _table_rows
+
+
+def _table_rows(text: str) -> list[list[str]]:
+    """The cells of every markdown table row in `text`, header rows included and rules left
+    out, stripped of the padding that aligns them: tests check what a table says, not how
+    wide its columns are."""
+    rows = [
+        [cell.strip() for cell in line.split("|")[1:-1]]
+        for line in text.splitlines()
+        if line.startswith("|")
+    ]
+    return [r for r in rows if not all(re.fullmatch(r":?-+:?", cell) for cell in r)]
+
+
+@pytest.fixture(scope="session")
+def table_rule():
+    """`table_rule(text, header)`: see `_table_rule`."""
+    return _table_rule
+
+
+def _table_rule(text: str, header: list[str]) -> list[str]:
+    """The rule under the table row `header` of `text` (e.g. `---:`, right-aligned), a cell
+    per column."""
+    lines = text.splitlines()
+    at = next(i for i, line in enumerate(lines) if _table_rows(line) == [header])
+    return [cell.strip() for cell in lines[at + 1].split("|")[1:-1]]
 
 
 @pytest.fixture()

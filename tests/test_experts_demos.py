@@ -1,4 +1,5 @@
 import dataclasses
+import json
 import subprocess
 import sys
 import time
@@ -7,7 +8,7 @@ import numpy as np
 import pytest
 import torch
 
-from bench import demos, experts, paths
+from bench import cli, demos, experts, paths
 from bench.rl.trpo import TRPOConfig
 from bench.types import ActionDemos, Demos
 
@@ -48,6 +49,22 @@ def test_expert_round_trip_reproduces_its_recorded_return(tiny_expert):
 def test_missing_expert_is_a_clear_error(tiny_expert):
     with pytest.raises(experts.ExpertError, match="no expert for HopperBulletEnv-v0"):
         experts.load_expert("HopperBulletEnv-v0")
+
+
+def test_experts_list_markdown(tmp_path, monkeypatch, capsys, table_rows, table_rule):
+    """A row per expert's meta.json, its numbers right-aligned; no policy is loaded."""
+    monkeypatch.setattr(paths, "EXPERTS_DIR", tmp_path)
+    folder = tmp_path / "HopperBulletEnv-v0"
+    folder.mkdir()
+    (folder / "policy.pt").write_bytes(b"")
+    meta = {"env_id": folder.name, "return_mean": 2597.84, "return_std": 64.4}
+    meta |= {"train_steps": 1_500_000, "wall_time_s": 582.0, "eval_episodes": 50}
+    (folder / "meta.json").write_text(json.dumps(meta))
+    assert cli.main(["experts", "list", "--markdown"]) == 0
+    out = capsys.readouterr().out
+    header = ["env", "return (mean +- std)", "train steps", "wall time"]
+    assert table_rows(out) == [header, [folder.name, "2597.8 +- 64.4", "1,500,000", "9.7 min"]]
+    assert [cell.endswith(":") for cell in table_rule(out, header)] == [False, True, True, True]
 
 
 def test_demos_keep_final_observation_and_hide_actions(tiny_expert):

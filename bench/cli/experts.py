@@ -12,7 +12,7 @@ from typing import TYPE_CHECKING
 from bench.cli.args import at_least, folder
 
 if TYPE_CHECKING:
-    pass
+    import pandas as pd
 
 
 def _experts_train(args: argparse.Namespace) -> int:
@@ -73,7 +73,28 @@ def _trpo_overrides(text: str) -> dict:
     return value
 
 
+EXPERT_NUMBERS = ("return (mean +- std)", "train steps", "wall time")
+"""The columns of `bench experts list --markdown` that hold numbers, right-aligned."""
+
+
+def experts_cells(experts: list[dict]) -> pd.DataFrame:
+    """The display strings of `bench experts list --markdown`, a row per expert's meta.json."""
+    import pandas as pd
+
+    rows = [
+        [
+            m["env_id"],
+            f"{m['return_mean']:.1f} +- {m['return_std']:.1f}",
+            f"{m['train_steps']:,}",
+            f"{m['wall_time_s'] / 60:.1f} min",
+        ]
+        for m in experts
+    ]
+    return pd.DataFrame(rows, columns=["env", *EXPERT_NUMBERS])
+
+
 def _experts_list(args: argparse.Namespace) -> int:
+    from bench import markdown
     from bench.experts import list_experts
     from bench.paths import EXPERTS_DIR
 
@@ -82,13 +103,7 @@ def _experts_list(args: argparse.Namespace) -> int:
         print(f"no experts in {EXPERTS_DIR}")
         return 0
     if getattr(args, "markdown", False):
-        print("| env | return (mean +- std) | train steps | wall time |")
-        print("|---|---:|---:|---:|")
-        for m in rows:
-            print(
-                f"| {m['env_id']} | {m['return_mean']:.1f} +- {m['return_std']:.1f} "
-                f"| {m['train_steps']:,} | {m['wall_time_s'] / 60:.1f} min |"
-            )
+        print(markdown.table(experts_cells(rows), right=EXPERT_NUMBERS))
         return 0
     print(
         f"{'env':36s} {'return (mean +- std)':>22s} {'episodes':>8s} {'train steps':>12s} {'wall':>7s}"

@@ -14,7 +14,7 @@ if TYPE_CHECKING:
 
 
 def _plot(args: argparse.Namespace) -> int:
-    from bench import labels, normalize, plot, store
+    from bench import labels, markdown, normalize, plot, store
 
     dirs = store.suite_dirs(args.results_dir)
     for d in dirs:
@@ -33,7 +33,7 @@ def _plot(args: argparse.Namespace) -> int:
         else:
             print(f"{d}: no learner's records, only references: no figure", file=sys.stderr)
         plot.write_summary_csv(df, d / "summary.csv")
-        print(f"## {d}\n\n{plot.summary_table(df)}\n")
+        print(f"## {d}\n\n{markdown.summary_table(df)}\n")
         print("wrote " + ", ".join(str(p) for p in [*written, d / "summary.csv"]) + "\n")
     return 0
 
