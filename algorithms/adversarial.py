@@ -29,11 +29,19 @@ from bench.learners import (
     PolicyAverage,
     report_each_update,
 )
-from bench.pixels import PixelConfig
 from bench.registry import Logger, Task
 from bench.rl import absorbing
 from bench.rl.absorbing import Transitions
-from bench.rl.networks import ConvTrunk, DeterministicPolicy, PixelScale, RunningNorm, mlp
+from bench.rl.networks import (
+    ConvTrunk,
+    DeterministicPolicy,
+    ObsShape,
+    PixelScale,
+    RunningNorm,
+    mlp,
+    normalizer,
+    shape_of,
+)
 from bench.rl.rollout import Batch, Rewards
 from bench.rl.shared_trunk import make_trpo
 from bench.rl.trpo import train
@@ -101,16 +109,18 @@ class Discriminator(nn.Module):
         self,
         norm: RunningNorm | PixelScale,
         features: Features,
-        obs_dim: int,
+        obs_shape: ObsShape,
         act_dim: int,
         hidden: tuple[int, ...],
         with_absorbing: bool,
-        pixels: PixelConfig | None = None,
     ) -> None:
+        """`obs_shape`: (O,) or O for state vectors, (C, H, W) for flat frames."""
         super().__init__()
         self.norm, self.features, self.with_absorbing = norm, features, with_absorbing
-        self.encoder = nn.Identity() if pixels is None else ConvTrunk(pixels.shape)
-        state = self.state(torch.zeros(1, obs_dim), torch.zeros(1, dtype=torch.bool))
+        shape = shape_of(obs_shape)
+        self.encoder = ConvTrunk(shape) if len(shape) == 3 else nn.Identity()
+        zeros = torch.zeros(1, int(np.prod(shape)))
+        state = self.state(zeros, torch.zeros(1, dtype=torch.bool))
         in_dim = features(state, torch.zeros(1, act_dim), state).shape[1]
         self.net = mlp([in_dim, *hidden, 1])
 
@@ -198,11 +208,9 @@ def expert_transitions(
 
 def batch_transitions(batch: Batch, task: Task) -> Transitions:
     """The batch's (T*E) transitions as D sees them: actions clipped to the bounds as the env
-    applied them; observations, or the frames filmed beside them where D judges video."""
+    applied them; what a reward judges of the observations (`Batch.judged`)."""
     actions = np.clip(batch.flat("actions"), task.action_low, task.action_high)
-    if task.video is not None:
-        return Transitions.real(batch.flat("frames"), actions, batch.flat("next_frames"))
-    return Transitions.real(batch.flat("obs"), actions, batch.flat("next_obs"))
+    return Transitions.real(batch.judged("obs"), actions, batch.judged("next_obs"))
 
 
 def train_adversarial(
@@ -225,17 +233,14 @@ def train_adversarial(
         demos.observations, demos.terminated, expert_actions, cfg.absorbing, cfg.gamma
     )
     expert_x = expert.map(torch.as_tensor)
-    if task.video is None:  # D sees what the policy sees, normalized alike
-        seen, seen_dim, norm = task.pixels, task.obs_dim, learner.policy.norm
-    else:  # D judges video filmed beside a state policy: frames of its own
-        seen, seen_dim, norm = (
-            task.video,
-            int(np.prod(task.video.shape)),
-            PixelScale(task.video.shape),
-        )
+    # D normalizes what it judges as the policy does, with the policy's running statistics,
+    # unless it judges frames the policy never sees (video filmed beside states).
+    shared = task.judged_shape == task.obs_shape
+    norm = learner.policy.norm if shared else normalizer(task.judged_shape)
     disc = Discriminator(
-        norm, features, seen_dim, task.act_dim, cfg.disc_hidden, cfg.absorbing, seen
+        norm, features, task.judged_shape, task.act_dim, cfg.disc_hidden, cfg.absorbing
     )
+    seen_dim = int(np.prod(task.judged_shape))
     opt = torch.optim.Adam(disc.parameters(), lr=cfg.disc_lr)
     gen = torch.Generator().manual_seed(seed + 2)
     reward = REWARDS[cfg.reward]

@@ -169,9 +169,7 @@ def train(
 ) -> Policy:
     cfg = config
     torch.manual_seed(seed)
-    # Where the learner acts on states but imitates video, the embedding and the reward see frames.
-    judged = "next_obs" if task.video is None else "next_frames"
-    embed = Embedding(task.obs_shape if task.video is None else task.video.shape, cfg)
+    embed = Embedding(task.judged_shape, cfg)
     logger.log(0, **train_embedding(embed, demos, cfg, seed))
     targets = demo_targets(embed, demos)
     a, b, c = cfg.reward_alpha, cfg.reward_beta, cfg.reward_gamma
@@ -179,7 +177,7 @@ def train(
 
     @torch.no_grad()
     def reward_fn(batch: Batch) -> Rewards:
-        e = embed(torch.from_numpy(batch.flat(judged)))
+        e = embed(torch.from_numpy(batch.judged("next_obs")))
         t = torch.from_numpy(batch.flat("timesteps") + 1).clamp_max(len(targets) - 1)
         dist2 = (e - targets[t]).square().sum(1)
         r = offset - a * dist2 - b * torch.sqrt(c + dist2)

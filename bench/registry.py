@@ -82,6 +82,12 @@ class Task:
         """One observation's shape as networks should see it: (O,) or (C, H, W)."""
         return (self.obs_dim,) if self.pixels is None else self.pixels.shape
 
+    @property
+    def judged_shape(self) -> tuple[int, ...]:
+        """The shape of what a reward judges (`Batch.judged`): `obs_shape`, or where the policy
+        acts on states but imitates video, the (C, H, W) of the frames filmed beside them."""
+        return self.obs_shape if self.video is None else self.video.shape
+
 
 class Logger(Protocol):
     """What the runner hands an algorithm to report progress."""

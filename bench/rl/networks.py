@@ -70,13 +70,14 @@ ObsShape = int | tuple[int, ...]
 """O for vectors, (C, H, W) for frames."""
 
 
-def _shape(obs_shape: ObsShape) -> tuple[int, ...]:
+def shape_of(obs_shape: ObsShape) -> tuple[int, ...]:
+    """(O,) for an int O, else the shape as a tuple."""
     return (obs_shape,) if isinstance(obs_shape, int) else tuple(obs_shape)
 
 
 def normalizer(obs_shape: ObsShape) -> RunningNorm | PixelScale:
     """RunningNorm for vectors, PixelScale for frames."""
-    shape = _shape(obs_shape)
+    shape = shape_of(obs_shape)
     return RunningNorm(shape[0]) if len(shape) == 1 else PixelScale(shape)
 
 
@@ -132,7 +133,7 @@ def body(
 ) -> nn.Sequential:
     """A tanh MLP on normalized observations; for frames, a ConvTrunk in front of it (`trunk`,
     to share one that exists, else a new one)."""
-    shape = _shape(obs_shape)
+    shape = shape_of(obs_shape)
     if len(shape) == 1:
         return mlp([shape[0], *hidden, out_dim])
     trunk = trunk or ConvTrunk(shape)
@@ -155,7 +156,7 @@ class GaussianPolicy(nn.Module):
         log_std: float = -0.5,
     ):
         super().__init__()
-        shape = _shape(obs_shape)
+        shape = shape_of(obs_shape)
         self.norm = normalizer(obs_shape)
         self.trunk: nn.Module = ConvTrunk(shape) if len(shape) == 3 else nn.Identity()
         features = self.trunk.out_dim if len(shape) == 3 else shape[0]
@@ -205,7 +206,7 @@ class ValueNet(nn.Module):
         super().__init__()
         self.norm = norm  # shared, not copied: one set of statistics per learner
         self.net = body(obs_shape, hidden, 1, trunk)
-        self.frames = len(_shape(obs_shape)) == 3
+        self.frames = len(shape_of(obs_shape)) == 3
 
     def forward(self, obs: torch.Tensor) -> torch.Tensor:
         return self.net(self.norm(obs)).squeeze(-1)

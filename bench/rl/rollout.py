@@ -56,6 +56,13 @@ class Batch:
         x = getattr(self, name)
         return x.reshape(-1, *x.shape[2:])
 
+    def judged(self, name: str) -> np.ndarray:
+        """What a reward judges of "obs" or "next_obs", flat: the observations, or where the envs
+        film themselves beside states, the frames of them (shaped `Task.judged_shape`)."""
+        if self.frames is None:
+            return self.flat(name)
+        return self.flat({"obs": "frames", "next_obs": "next_frames"}[name])
+
 
 @dataclass(frozen=True)
 class Rewards:

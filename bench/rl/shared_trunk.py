@@ -13,7 +13,7 @@ from __future__ import annotations
 import torch
 from torch import nn
 
-from bench.rl.networks import GaussianPolicy, ObsShape, ValueNet
+from bench.rl.networks import GaussianPolicy, ObsShape, ValueNet, shape_of
 from bench.rl.trpo import TRPO, TRPOConfig, value_step
 
 CLONE_WEIGHT = 1.0
@@ -23,7 +23,7 @@ behavioural-cloning weight, beta_clone = 1)."""
 
 def make_trpo(obs_shape: ObsShape, act_dim: int, cfg: TRPOConfig, seed: int) -> TRPO:
     """The TRPO learner for a task's observations: states (O,) or frames (C, H, W)."""
-    frames = not isinstance(obs_shape, int) and len(obs_shape) == 3
+    frames = len(shape_of(obs_shape)) == 3
     return (SharedTrunkTRPO if frames else TRPO)(obs_shape, act_dim, cfg, seed)
 
 
