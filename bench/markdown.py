@@ -124,6 +124,7 @@ def header(df: pd.DataFrame, results_dir: Path) -> str:
         ("trials", f"{len(df)} ({len(failed)} failed)"),
         ("env steps", f"{int(df['env_steps'].sum()):,} of training, summed over trials"),
         ("wall time", f"{duration(df['wall_time'].sum())} summed over trials"),
+        ("software", "; ".join(sorted(df["software"].unique()))),
     ]
     # A key-value table: blank column names, as the keys say what each row is.
     lines = [f"# ifo-bench report: {suites}", "", table(pd.DataFrame(rows, columns=["", ""]))]

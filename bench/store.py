@@ -43,6 +43,7 @@ TRIAL_COLUMNS = [
     "env_steps",
     "wall_time",
     "state_distance",
+    "software",
 ]
 CURVE_COLUMNS = ["trial_id", *SPEC_COLUMNS, "inputs", "env_steps", "return"]
 LOG_COLUMNS = ["trial_id", *SPEC_COLUMNS, "key", "index", "value"]
@@ -222,7 +223,13 @@ def _trial_row(r: TrialResult) -> dict[str, Any]:
         "env_steps": r.env_steps,
         "wall_time": r.wall_time,
         "state_distance": _float(r.state_distance) if ok else math.nan,
+        "software": software(r.versions),
     }
+
+
+def software(versions: dict[str, str]) -> str:
+    """The package versions a trial ran with, as one label: "gymnasium 1.4.0, pybullet ..."."""
+    return ", ".join(f"{pkg} {v}" for pkg, v in sorted(versions.items()))
 
 
 def _frame(rows: list[dict], columns: list[str], sort_by: list[str]) -> pd.DataFrame:

@@ -87,6 +87,8 @@ def test_report_has_every_table_and_figure(written, table_rows):
     ):
         assert row in rows, row
     assert any(r[0] == "seeds per cell" and r[1].startswith("4 ") for r in rows)
+    software = next(r[1] for r in rows if r[0] == "software")  # what the records ran with
+    assert software == "ifo-bench test"
     for needle in (
         "# ifo-bench report: synthetic",
         "## How to read this report",
