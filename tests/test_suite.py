@@ -476,6 +476,12 @@ def test_an_env_may_run_other_seeds_per_algorithm(tmp_path):
     assert seeds[HOPPER, "with-actions"] == [0, 1, 2]  # the suite's, as before
     assert seeds[PENDULUM, "ifo"] == [0, 1] and seeds[PENDULUM, "random"] == [0, 1, 2]
     assert {s.trial_id for s in specs if s.seed in (0, 1)} <= plain  # the same trials keep ids
+    raw["envs"][HOPPER]["seeds"] = {"ifo": 0}  # not on this env
+    specs = expand(load_suite(write(tmp_path, raw, "n.yaml")))
+    assert {s.env_id for s in specs if s.algorithm == "ifo"} == {PENDULUM}
+    raw["envs"][HOPPER]["seeds"] = {"ifo": -1}
+    with pytest.raises(SuiteError, match=r"envs\.HopperBulletEnv-v0\.seeds\.ifo: expected"):
+        load_suite(write(tmp_path, raw, "neg.yaml"))
     raw["envs"][HOPPER]["seeds"] = {"ifoo": 1}
     with pytest.raises(
         SuiteError, match=r"envs\.HopperBulletEnv-v0\.seeds: 'ifoo' is no algorithm"

@@ -48,6 +48,17 @@ Seeds = Annotated[SeedList, pydantic.BeforeValidator(_seeds)]
 """Seeds as a tuple: a count n becomes 0..n-1."""
 
 
+def _env_seeds(value: Any) -> Any:
+    """As `_seeds`, and 0: the algorithm does not run on this env."""
+    return [] if value == 0 and not isinstance(value, bool) else _seeds(value)
+
+
+EnvSeeds = Annotated[
+    list[Seed], pydantic.AfterValidator(_distinct), pydantic.BeforeValidator(_env_seeds)
+]
+"""An env's seeds for one algorithm: as `Seeds`, or 0 for none (not on this env)."""
+
+
 class RunnerFile(BaseModel):
     model_config = _STRICT
 
@@ -74,7 +85,7 @@ class EnvFile(BaseModel):
     frame_size: Annotated[int, Field(ge=24, le=256)] | None = None  # the conv trunk needs 20+
     trpo: dict[str, JsonValue] = {}
     hyperparams: dict[str, JsonValue] = {}
-    seeds: dict[str, Seeds] = {}
+    seeds: dict[str, EnvSeeds] = {}
 
     @model_validator(mode="after")
     def _observation_fits(self) -> EnvFile:

@@ -41,7 +41,8 @@ class EnvSettings:
     task needs from, say, a discriminator is the task's, not the suite's."""
     seeds: dict[str, tuple[int, ...]] = field(default_factory=dict, hash=False)
     """Seeds per algorithm (name or label) on this env, over the entry's and the suite's:
-    a dear env runs fewer seeds than a cheap one in the same figure."""
+    a dear env runs fewer seeds than a cheap one in the same figure; none (from 0), an
+    algorithm the suite runs elsewhere but not here."""
 
 
 @dataclass(frozen=True)
