@@ -10,7 +10,7 @@ atomic file per finished trial, as results stream back.
 from __future__ import annotations
 
 import warnings
-from collections.abc import Iterator
+from collections.abc import Collection, Iterator
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -41,11 +41,20 @@ def pending(specs: list[TrialSpec], have: dict[str, str], retry_failed: bool) ->
 
 
 def _jobs(
-    specs: list[TrialSpec], costs: CostModel, tensorboard: str | Path | None = None
+    specs: list[TrialSpec],
+    costs: CostModel,
+    tensorboard: str | Path | None = None,
+    first: Collection[str] = (),
 ) -> Iterator:
+    """The trials as joblib calls: those of the algorithms `first` (names or labels) before the
+    others, and within each group the dearest first, so the last to finish are short."""
+
+    def order(spec: TrialSpec) -> tuple:
+        return (bool({spec.algorithm, spec.shown} & set(first)), *costs.priority(spec))
+
     remaining = list(specs)
     while remaining:  # a generator: the next trial is chosen (and loaded) as a worker frees up
-        spec = max(remaining, key=costs.priority)  # first of equals: suite order
+        spec = max(remaining, key=order)  # first of equals: suite order
         remaining.remove(spec)
         yield joblib.delayed(run_trial)(spec, plan(spec).inputs(), tensorboard)
 
@@ -59,9 +68,11 @@ def run_suite(
     retry_failed: bool = False,
     progress: bool = True,
     tensorboard: str | Path | None = None,
+    first: Collection[str] = (),
 ) -> RunSummary:
     """Run every pending trial in parallel, writing each record as it finishes; with
-    `tensorboard`, each trial's scalars go there live as TensorBoard events."""
+    `tensorboard`, each trial's scalars go there live as TensorBoard events. The trials of
+    the algorithms `first` (names or labels) start before the others'."""
     records = list(store.scan(results_dir))
     todo = pending(specs, {r.trial_id: r.status for r in records}, retry_failed)
     skipped = len(specs) - len(todo)
@@ -98,7 +109,7 @@ def run_suite(
             parallel = joblib.Parallel(
                 n_jobs=jobs, return_as="generator_unordered", pre_dispatch="n_jobs"
             )
-            for result in parallel(_jobs(todo, costs, tensorboard)):
+            for result in parallel(_jobs(todo, costs, tensorboard, first)):
                 if result.policy is not None:  # before the record: a record implies its policy
                     policies.write(results_dir, result.trial_id, result.policy)
                 store.write(results_dir, result)

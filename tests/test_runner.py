@@ -136,17 +136,25 @@ def test_dispatch_runs_unseen_kinds_then_the_costliest_first():
     costs = CostModel()
     costs.observe(spec(PENDULUM, "random", 0), 0.1)  # 0.1 s per 1000 steps
     costs.observe(spec(PENDULUM, "survival", 0), 10.0)
-    jobs = _jobs([cheap, dear, unseen], costs, "cpu")
+    jobs = _jobs([cheap, dear, unseen], costs)
     assert next(jobs)[1][0] == unseen  # its cost is unknown: learn it early
     assert next(jobs)[1][0] == dear  # then the costliest; the cheap one fills the tail
 
     costs = CostModel()
     costs.observe(spec(PENDULUM, "random", 0), 0.1)
     costs.observe(spec(PENDULUM, "survival", 0), 10.0)
-    jobs = _jobs([cheap, dear, spec(PENDULUM, "survival", 2)], costs, "cpu")
+    jobs = _jobs([cheap, dear, spec(PENDULUM, "survival", 2)], costs)
     assert next(jobs)[1][0] == dear
     costs.observe(spec(PENDULUM, "random", 2), 100.0)  # a slow one finished meanwhile
     assert next(jobs)[1][0] == cheap  # the order follows what was learned
+
+    # The suite's `runner.first` algorithms go before every other, dearest first among them.
+    oracle = [spec(PENDULUM, "oracle", s, budget=b) for s, b in ((0, 100), (1, 200))]
+    costs.observe(spec(PENDULUM, "oracle", 9), 0.01)  # known to be the cheapest
+    assert [job[1][0] for job in _jobs([dear, *oracle], costs)][0] == dear
+    jobs = _jobs([dear, unseen, *oracle, cheap], costs, first={"oracle"})
+    order = [job[1][0] for job in jobs]
+    assert order[:2] == oracle[::-1] and set(order[2:]) == {dear, unseen, cheap}
 
 
 def test_two_variants_of_one_algorithm_run_and_plot_side_by_side(tmp_path, cli):

@@ -98,13 +98,16 @@ def test_explicit_name_seeds_and_runner(tmp_path):
         "name": "mine",
         "seeds": [7, 3],
         "eval_episodes": 4,
-        "runner": {"jobs": 2, "backend": "dask"},
+        "runner": {"jobs": 2, "backend": "dask", "first": ["ifo"]},
     }
     suite = load_suite(write(tmp_path, raw))
     assert suite.name == "mine"
     assert suite.seeds == (7, 3)
     assert suite.eval_episodes == 4
-    assert suite.runner == RunnerSettings(jobs=2, backend="dask")
+    assert suite.runner == RunnerSettings(jobs=2, backend="dask", first=("ifo",))
+    raw["runner"]["first"] = ["ifoo"]
+    with pytest.raises(SuiteError, match=r"runner\.first: 'ifoo' is no algorithm or label"):
+        load_suite(write(tmp_path, raw, "typo.yaml"))
 
 
 def test_yaml_text_as_documented(tmp_path):

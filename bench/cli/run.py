@@ -37,6 +37,7 @@ def _run(args: argparse.Namespace) -> int:
             scheduler=args.scheduler,
             retry_failed=args.retry_failed,
             tensorboard=args.tensorboard,
+            first=suite.runner.first,
         )
     print(
         f"{summary.done} trials done, {summary.failed} failed, "

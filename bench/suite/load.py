@@ -101,7 +101,7 @@ def _suite(raw: Any, default_name: str) -> Suite:
                     f"demos[{i}]",
                     f"expected at most {DEMO_POOL_SIZE} (the shipped demonstrations), got {n}",
                 )
-    runner = RunnerSettings(file.runner.jobs, file.runner.backend)
+    runner = RunnerSettings(file.runner.jobs, file.runner.backend, tuple(file.runner.first))
     algorithms = _algorithms(file.algorithms)
 
     # Lookups last: they are the slow part and the structure is known good by now.
@@ -125,11 +125,12 @@ def _suite(raw: Any, default_name: str) -> Suite:
                 " it is the 1.0 of normalized scores; train it with `bench experts`)",
             )
     names = {n for a in algorithms for n in (a.name, a.shown)}
-    for env in envs:
-        unknown = sorted(set(env.seeds) - names)
+    named = {f"envs.{env.env_id}.seeds": env.seeds for env in envs} | {"runner.first": runner.first}
+    for key, given in named.items():
+        unknown = sorted(set(given) - names)
         if unknown:
             raise checks.Invalid(
-                f"envs.{env.env_id}.seeds",
+                key,
                 f"{', '.join(map(repr, unknown))} is no algorithm or label of the suite"
                 f" ({', '.join(sorted(names))})",
             )

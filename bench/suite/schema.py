@@ -26,7 +26,7 @@ Count = Annotated[int, Field(ge=1)]
 Seed = Annotated[int, Field(ge=0)]
 
 
-def _distinct(values: list[int]) -> tuple[int, ...]:
+def _distinct(values: list) -> tuple:
     if len(set(values)) != len(values):
         raise ValueError(f"expected distinct values, got {show(values)}")
     return tuple(values)
@@ -65,6 +65,10 @@ class RunnerFile(BaseModel):
     jobs: int = -1
     """Parallel trials; -1 uses every core."""
     backend: Literal["loky", "dask"] = "loky"
+    first: Annotated[
+        list[Annotated[str, Field(min_length=1)]], pydantic.AfterValidator(_distinct)
+    ] = []
+    """Algorithms (names or labels) whose trials run before the others'."""
 
     @pydantic.field_validator("jobs")
     @classmethod

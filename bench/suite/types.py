@@ -16,6 +16,9 @@ class RunnerSettings:
     """Parallel trials; -1 uses every core."""
     backend: str = "loky"
     """joblib backend: "loky" (this machine) or "dask" (a cluster)."""
+    first: tuple[str, ...] = ()
+    """Algorithms (names or labels) whose trials run before the others': the headline
+    learners of a long run land first, so a run cut short has them at every demo count."""
 
 
 @dataclass(frozen=True)
