@@ -218,7 +218,7 @@ def draw_performance_profile(
     return fig
 
 
-# ---------------------------------------------------------------- tables
+# ---------------------------------------------------------------- csv
 
 
 def write_summary_csv(df: pd.DataFrame, path: str | Path) -> Path:

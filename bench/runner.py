@@ -1,5 +1,6 @@
 """Run a suite's trials in parallel: `run_suite` hands each pending trial (`bench.trial`) to
-a joblib worker (loky here, dask on a cluster), longest first (`bench.costs`).
+a joblib worker (loky here, dask on a cluster): the suite's `runner.first` algorithms before the
+rest, and longest first within each (`bench.costs`).
 
 The driver prepares each trial's inputs (demonstrations, or the expert) and
 ships them with it, so workers need no files: that is what lets the dask
@@ -47,7 +48,8 @@ def _jobs(
     first: Collection[str] = (),
 ) -> Iterator:
     """The trials as joblib calls: those of the algorithms `first` (names or labels) before the
-    others, and within each group the dearest first, so the last to finish are short."""
+    others; within each group, kinds never timed first (to learn their cost), then the
+    dearest, so the last to finish are short."""
 
     def order(spec: TrialSpec) -> tuple:
         return (bool({spec.algorithm, spec.shown} & set(first)), *costs.priority(spec))

@@ -31,9 +31,7 @@ class RunningNorm(nn.Module):
     @torch.no_grad()
     def update(self, x: np.ndarray) -> None:
         """Fold a (B, O) batch into the statistics (parallel Welford)."""
-        x = torch.as_tensor(x, dtype=torch.float64, device=self.mean.device).reshape(
-            -1, self.mean.numel()
-        )
+        x = torch.as_tensor(x, dtype=torch.float64).reshape(-1, self.mean.numel())
         n = x.shape[0]
         if n == 0:
             return
@@ -224,7 +222,7 @@ class DeterministicPolicy:
     """
 
     def __init__(self, policy: GaussianPolicy, low: np.ndarray, high: np.ndarray) -> None:
-        self.policy = copy.deepcopy(policy).cpu().eval()  # a snapshot: training goes on without it
+        self.policy = copy.deepcopy(policy).eval()  # a snapshot: training goes on without it
         self.low, self.high = np.asarray(low, np.float32), np.asarray(high, np.float32)
 
     @torch.no_grad()

@@ -59,9 +59,10 @@ class Batch:
     def judged(self, name: str) -> np.ndarray:
         """What a reward judges of "obs" or "next_obs", flat: the observations, or where the envs
         film themselves beside states, the frames of them (shaped `Task.judged_shape`)."""
-        if self.frames is None:
-            return self.flat(name)
-        return self.flat({"obs": "frames", "next_obs": "next_frames"}[name])
+        frames = {"obs": "frames", "next_obs": "next_frames"}
+        if name not in frames:
+            raise ValueError(f'a reward judges "obs" or "next_obs", not {name!r}')
+        return self.flat(name if self.frames is None else frames[name])
 
 
 @dataclass(frozen=True)

@@ -205,7 +205,7 @@ class DeterministicActor:
     """numpy in, numpy out: what the runner evaluates (observations get their flag, 0)."""
 
     def __init__(self, actor: Actor) -> None:
-        self.actor = copy.deepcopy(actor).cpu().eval()
+        self.actor = copy.deepcopy(actor).eval()
 
     @torch.no_grad()
     def __call__(self, obs: np.ndarray) -> np.ndarray:

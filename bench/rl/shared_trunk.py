@@ -54,9 +54,9 @@ class SharedTrunkTRPO(TRPO):
         before = nn.utils.parameters_to_vector(policy.trunk.parameters()).detach()
 
         def loss_of(idx: torch.Tensor) -> torch.Tensor:
-            features = policy.features(obs[idx])  # one trunk pass per minibatch, both heads
-            value_loss = (self.value.head(features) - targets[idx]).square().mean()
-            clone = mean_kl(policy, old_mean[idx], policy.mean_net(features))
+            seen = policy.features(obs[idx])  # one trunk pass per minibatch, both heads
+            value_loss = (self.value.head(seen) - targets[idx]).square().mean()
+            clone = mean_kl(policy, old_mean[idx], policy.mean_net(seen))
             return value_loss + CLONE_WEIGHT * clone
 
         loss = value_step(self.vf_opt, len(obs), loss_of, self.cfg, self.gen)

@@ -212,7 +212,8 @@ class TRPO:
     observations."""
 
     def __init__(self, obs_shape: ObsShape, act_dim: int, cfg: TRPOConfig, seed: int) -> None:
-        """`obs_shape`: O for state vectors, (C, H, W) for flat frames (`Task.obs_shape`)."""
+        """`obs_shape`: O or (O,), state vectors. From frames (C, H, W), build the learner with
+        `bench.rl.shared_trunk.make_trpo`."""
         torch.manual_seed(seed)
         self.cfg = cfg
         self.policy = GaussianPolicy(obs_shape, act_dim, cfg.hidden, cfg.init_log_std)

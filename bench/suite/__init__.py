@@ -14,7 +14,7 @@ A suite names everything one experiment runs::
       # hyperparams: {disc_steps: 25} (settings for every algorithm on this env that has
       # them, e.g. the adversarial learners' discriminator pace; an algorithm's own wins);
       # seeds: {gaifo: 5, bco: 3} (seeds per algorithm or label on this env, over the
-      # entry's and the suite's: a dear env runs fewer)
+      # entry's and the suite's: a dear env runs fewer; 0: the algorithm does not run here)
     demos: [1, 5, 10, 25]  # demonstration counts: distinct ints in 1..DEMO_POOL_SIZE
     algorithms:            # a name, or {name: {hyperparameter: value}}
       - random
@@ -22,7 +22,8 @@ A suite names everything one experiment runs::
       - gaifo: {disc_lr: 0.001}
     seeds: 10              # a count (seeds 0..n-1) or a list of distinct ints >= 0; default 10
     eval_episodes: 10      # episodes per evaluation; default 10
-    runner: {jobs: 2, backend: loky}   # optional; jobs >= 1 or -1 (all cores), backend loky|dask
+    runner: {jobs: 2, backend: loky}   # optional; jobs >= 1 or -1 (all cores), backend loky|dask;
+                           # first: [gaifo, gail] runs those algorithms' trials before the rest
 
 Everything is checked before any work starts: unknown keys, wrong types,
 unknown algorithms, hyperparameters and env ids, and a missing expert (every

@@ -50,7 +50,7 @@ Seeds = Annotated[SeedList, pydantic.BeforeValidator(_seeds)]
 
 def _env_seeds(value: Any) -> Any:
     """As `_seeds`, and 0: the algorithm does not run on this env."""
-    return [] if value == 0 and not isinstance(value, bool) else _seeds(value)
+    return [] if type(value) is int and value == 0 else _seeds(value)
 
 
 EnvSeeds = Annotated[
