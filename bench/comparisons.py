@@ -150,6 +150,11 @@ class CountStatistics:
     """Why there are no statistics at all, in words (None: there are)."""
 
 
+def env_list(env_ids: Collection[str]) -> str:
+    """Envs by their short names, in the figure's order: "Walker2D, Ant"."""
+    return ", ".join(labels.env_label(e) for e in labels.env_order(env_ids))
+
+
 def pooled(df: pd.DataFrame, n: int, names: list[str], left_out: list[str]) -> list[str]:
     """The learners whose scores pool over envs at `n` demonstrations: all of them where some
     env has every learner (score_dict then keeps the envs they share), else those run on the
@@ -168,8 +173,8 @@ def pooled(df: pd.DataFrame, n: int, names: list[str], left_out: list[str]) -> l
     for a in names:
         if a not in keep:
             left_out.append(
-                f"{a}: left out of the pooled statistics: run on {sorted(envs_of[a])} only,"
-                f" not on all of {sorted(chosen)}"
+                f"{a}: left out of the pooled statistics: run on {env_list(envs_of[a])} only,"
+                f" not on all of {env_list(chosen)}"
             )
     return keep
 

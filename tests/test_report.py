@@ -359,4 +359,5 @@ def test_screen_variants_on_one_env_each_leave_the_pooled_statistics_not_the_oth
     left_out: list[str] = []
     assert pooled(df, 5, ["gaifo", "gaifo-x", "gaifo-y", "gail"], left_out) == ["gaifo", "gail"]
     assert len(left_out) == 2 and "gaifo-x: left out" in left_out[0]
+    assert left_out[0].endswith("run on A only, not on all of A, B")
     assert pooled(df, 5, ["gaifo", "gaifo-x"], []) == ["gaifo", "gaifo-x"]  # they share env A
