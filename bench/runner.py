@@ -51,8 +51,10 @@ def _jobs(
     others; within each group, kinds never timed first (to learn their cost), then the
     dearest, so the last to finish are short."""
 
+    first = set(first)
+
     def order(spec: TrialSpec) -> tuple:
-        return (bool({spec.algorithm, spec.shown} & set(first)), *costs.priority(spec))
+        return (bool({spec.algorithm, spec.shown} & first), *costs.priority(spec))
 
     remaining = list(specs)
     while remaining:  # a generator: the next trial is chosen (and loaded) as a worker frees up
