@@ -171,8 +171,9 @@ def how_to_read(learners: Sequence[str], reps: int, action_users: Collection[str
             "**Oracle** is the upper control: the imitators' optimizer with their settings, "
             "trained on the env's own reward, no demonstrations. It is drawn as a line, not a bar. "
             "A learner's IQM as a fraction of the oracle's (per env) says how much of what the "
-            "optimizer reaches at this budget the imitation reaches; the gap from the oracle to "
-            "the expert is the optimizer's."
+            "optimizer reaches at this budget the imitation reaches, and its worst seed's fraction "
+            "whether every seed got there; the gap from the oracle to the expert is the "
+            "optimizer's."
         )
     if set(action_users) & set(learners):
         items.append(
@@ -336,6 +337,9 @@ def env_table(
 
 
 def interval(estimate: float, lo: float, hi: float) -> str:
+    """`estimate [lo, hi]`; the estimate alone for a point statistic (no interval)."""
+    if pd.isna(lo) and pd.isna(hi):
+        return f"{estimate:.2f}"
     return f"{estimate:.2f} [{lo:.2f}, {hi:.2f}]"
 
 

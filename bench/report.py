@@ -287,6 +287,8 @@ def _per_env_section(
             for a, b in pairs
         }
         lines.append(markdown.env_table(fractions, "IQM / oracle's IQM [95% CI]", keys, columns))
+        worst = frame[frame["statistic"] == "worst_of_oracle"]
+        lines.append(markdown.env_table(worst, "Worst seed / oracle's IQM", keys, columns))
     return "\n\n".join(lines), frame
 
 

@@ -320,9 +320,14 @@ def test_learners_are_read_as_fractions_of_their_matched_oracle(tmp_path):
     assert fractions.loc[(hopper, "gaifo-fast"), "estimate"] == pytest.approx(0.465 / 0.515)
     lo, hi = fractions.loc[(hopper, "gaifo"), ["lo", "hi"]]
     assert lo <= 0.775 / 0.815 <= hi
+    worst = rows[rows["statistic"] == "worst_of_oracle"].set_index(["env_id", "algorithm"])
+    assert worst.loc[(hopper, "gaifo"), "estimate"] == pytest.approx(0.7 / 0.815)  # seed 0
+    assert worst.loc[(hopper, "gaifo-fast"), "estimate"] == pytest.approx(0.45 / 0.515)
+    assert worst.loc[(hopper, "gaifo"), ["lo", "hi"]].isna().all()
     improved = rows[rows["statistic"] == "p_improvement"]
     assert not {"oracle", "oracle-fast"} & (set(improved["algorithm"]) | set(improved["other"]))
-    assert "IQM / oracle's IQM" in (results / "report" / "report.md").read_text()
+    text = (results / "report" / "report.md").read_text()
+    assert "IQM / oracle's IQM" in text and "Worst seed / oracle's IQM" in text
 
 
 def test_ceiling_of_matches_a_variant_suffix_else_the_plain_oracle():
