@@ -173,6 +173,18 @@ def test_select_keeps_a_slice_with_the_same_ids(tmp_path):
     assert select(specs, path) == specs
 
 
+def test_select_by_demo_count_keeps_the_trials_without_demonstrations(tmp_path):
+    path = write(tmp_path, base())
+    specs = expand(load_suite(path))
+    counts = sorted({s.n_demos for s in specs if s.n_demos})
+    assert len(counts) > 1, "the test suite needs several demo counts"
+    chosen = select(specs, path, demos=[counts[0]])
+    assert {s.n_demos for s in chosen} == {0, counts[0]}
+    assert chosen == [s for s in specs if s.n_demos in (0, counts[0])]
+    with pytest.raises(SuiteError, match=r"x\.yaml: 7777 is not one of the suite's demo counts"):
+        select(specs, path, demos=[7777])
+
+
 @pytest.mark.parametrize("key", ["env", "algorithm"])
 def test_select_of_a_name_not_in_the_suite_fails(tmp_path, key):
     path = write(tmp_path, base())

@@ -16,7 +16,9 @@ def _run(args: argparse.Namespace) -> int:
     from bench.suite import expand, load_suite, select
 
     suite = load_suite(args.suite)
-    specs = select(expand(suite), args.suite, env=args.env, algorithm=args.algorithm)
+    specs = select(
+        expand(suite), args.suite, env=args.env, algorithm=args.algorithm, demos=args.demos
+    )
     results = Path(args.results) if args.results else Path("results") / suite.name
     backend = args.backend or suite.runner.backend
     jobs = args.jobs if args.jobs is not None else suite.runner.jobs
@@ -105,6 +107,13 @@ def add(sub: argparse._SubParsersAction) -> None:
         action="append",
         metavar="NAME",
         help="run only this algorithm's trials (repeatable)",
+    )
+    run.add_argument(
+        "--demos",
+        action="append",
+        type=int,
+        metavar="N",
+        help="run only the trials with N demonstrations (repeatable), and those that take none",
     )
     run.add_argument(
         "--jobs", type=jobs_count, help="parallel trials (default: the suite's, else all cores)"

@@ -48,10 +48,14 @@ def select(
     source: str | Path,
     env: list[str] | None = None,
     algorithm: list[str] | None = None,
+    demos: list[int] | None = None,
 ) -> list[TrialSpec]:
-    """The trials of some envs and/or algorithms only (None: all); ids are unchanged.
+    """The trials of some envs, algorithms and/or demonstration counts only (None: all); ids
+    are unchanged. A demo count keeps the trials that take no demonstrations (random, expert,
+    the controls), which every count is normalized and compared against.
 
-    A name the suite does not have raises SuiteError, so a typo never silently runs nothing.
+    A name or count the suite does not have raises SuiteError, so a typo never silently runs
+    nothing.
     """
     names = {
         "env_id": lambda s: {s.env_id},
@@ -65,6 +69,14 @@ def select(
             if name not in have:
                 raise SuiteError(f"{source}: {name!r} is not one of the suite's {label}: {have}")
         specs = [s for s in specs if names[key](s) & set(wanted)]
+    if demos is not None:
+        have_counts = sorted({s.n_demos for s in specs if s.n_demos})
+        for count in demos:
+            if count not in have_counts:
+                raise SuiteError(
+                    f"{source}: {count} is not one of the suite's demo counts: {have_counts}"
+                )
+        specs = [s for s in specs if s.n_demos == 0 or s.n_demos in demos]
     return specs
 
 
