@@ -96,7 +96,7 @@ def current_d_reward(
     """The critic's reward hook: for each replay minibatch, one Adam step of D on it against
     as many expert transitions, then D's reward for that minibatch from D as it is after the
     step, with D's diagnostics to log."""
-    opt = torch.optim.Adam(disc.net.parameters(), lr=cfg.disc_lr)
+    opt = torch.optim.Adam(disc.net.parameters(), lr=cfg.disc_lr, foreach=True)
     gen = torch.Generator().manual_seed(seed + 2)
     reward = REWARDS[cfg.reward]
 

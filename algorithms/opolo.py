@@ -132,8 +132,8 @@ class OPOLO:
         self.actor_target = copy.deepcopy(self.actor)
         self.critic = sac.TwinQ(obs_dim, act_dim, cfg.hidden)
         self.critic_target = copy.deepcopy(self.critic)
-        self.actor_opt = torch.optim.Adam(self.actor.parameters(), lr=cfg.lr)
-        self.critic_opt = torch.optim.Adam(self.critic.parameters(), lr=cfg.lr)
+        self.actor_opt = torch.optim.Adam(self.actor.parameters(), lr=cfg.lr, foreach=True)
+        self.critic_opt = torch.optim.Adam(self.critic.parameters(), lr=cfg.lr, foreach=True)
         self.buffer = sac.ReplayBuffer(obs_dim, act_dim, cfg.buffer_size, seed)
 
         self.expert = expert_replay(demos, None, act_dim, absorbing=False)
@@ -236,14 +236,15 @@ class OPOLO:
         self.stats.update(critic_loss=td.item(), reward_mean=rewards.mean().item())
 
         if self.updates % cfg.policy_delay == 0:
-            q = torch.min(*self.critic(batch.obs, self.actor.act(batch.obs))).mean()
             expert = self._expert_batch(cfg.batch_size)
             with torch.no_grad():
                 inferred = self.inverse(expert)
-            imitation = (self.actor.act(expert.obs) - inferred).square().sum(-1).mean()
-            actor_loss = -dual * q + cfg.inverse_weight * imitation
-            self.actor_opt.zero_grad()
-            actor_loss.backward()
+            with sac.frozen(self.critic):
+                q = torch.min(*self.critic(batch.obs, self.actor.act(batch.obs))).mean()
+                imitation = (self.actor.act(expert.obs) - inferred).square().sum(-1).mean()
+                actor_loss = -dual * q + cfg.inverse_weight * imitation
+                self.actor_opt.zero_grad()
+                actor_loss.backward()
             self.actor_opt.step()
             with torch.no_grad():
                 for target_net, net in (
