@@ -290,18 +290,29 @@ def _legend_and_titles(fig: Figure, handles: list, title: str, starred: Collecti
         Line2D([], [], color=color, linestyle="--", linewidth=1.0, label=label)
         for color, label in REFERENCE_LINES.values()
     ]
-    legend = fig.legend(
-        handles=handles,
-        loc="upper center",
-        bbox_to_anchor=(0.5, 0.0),
-        ncol=_legend_columns(len(handles), panels_across=min(3, len(fig.axes))),
-        frameon=False,
-        handlelength=1.6,
-        columnspacing=1.2,
-    )
+    # As few rows as fit, then more while the legend is wider than the panels: a legend that
+    # overhangs widens the saved figure (bbox_inches="tight"), so a page or a README shrinks
+    # the panels, and their text, to fit it.
+    columns = _legend_columns(len(handles), panels_across=min(3, len(fig.axes)))
+    while True:
+        legend = fig.legend(
+            handles=handles,
+            loc="upper center",
+            bbox_to_anchor=(0.5, 0.0),
+            ncol=columns,
+            frameon=False,
+            handlelength=1.6,
+            columnspacing=1.2,
+        )
+        fig.draw_without_rendering()  # lay out, so the legend's extent is known
+        if columns == 1 or legend.get_window_extent().width <= fig.bbox.width:
+            break
+        legend.remove()
+        rows = math.ceil(len(handles) / columns) + 1
+        columns = min(columns - 1, math.ceil(len(handles) / rows))
     fig.suptitle(title, fontweight="bold")
     if starred:
-        fig.draw_without_rendering()  # lay out, so the legend's extent is known
+        fig.draw_without_rendering()
         box = legend.get_window_extent().transformed(fig.transFigure.inverted())
         fig.text(
             box.x1, box.y0, ACTIONS_FOOTNOTE, ha="right", va="top", fontsize="small", color="0.3"

@@ -58,6 +58,29 @@ def test_figure2_panels_bars_and_labels():
     assert fig.get_suptitle()
 
 
+def test_figure2_legend_is_no_wider_than_its_panels():
+    """Long control labels wrap the legend into more rows instead of widening the figure (which
+    would shrink the panels wherever the figure is shown at a fixed width)."""
+    one_env = frame().query("env_id == @ENVS[0]")
+    df = pd.concat([one_env.assign(env_id=f"Env{i}BulletEnv-v0") for i in range(6)])
+    controls = df[df["algorithm"] == "random"].assign(inputs="none")
+    df = pd.concat(
+        [
+            df,
+            controls.assign(algorithm="survival", normalized=0.3),
+            controls.assign(algorithm="oracle", normalized=0.9),
+        ],
+        ignore_index=True,
+    )
+    fig = plot.draw_figure2(df)
+    fig.draw_without_rendering()
+    (legend,) = fig.legends
+    assert len(legend.get_texts()) == 6
+    assert legend.get_window_extent().width <= fig.bbox.width
+    rows = {round(t.get_window_extent().y0) for t in legend.get_texts()}
+    assert len(rows) > 1  # it did wrap: one row of these labels is wider than 3 panels
+
+
 def test_figure2_repeats_demo_free_learners_at_every_count():
     df = frame()
     free = df[df["algorithm"] == "random"].assign(algorithm="no-demos-ifo", normalized=0.2)
