@@ -29,7 +29,7 @@ from bench.learners import (
     PolicyAverage,
     report_each_update,
 )
-from bench.registry import Logger, Task
+from bench.registry import Logger, Task, added_later
 from bench.rl import absorbing
 from bench.rl.absorbing import Transitions
 from bench.rl.networks import (
@@ -52,6 +52,9 @@ REWARDS: dict[str, Callable[[torch.Tensor], torch.Tensor]] = {
     "log D": lambda logit: -F.softplus(-logit),  # log sigmoid(x) < 0
     "log D - log(1-D)": lambda logit: logit,  # the logit itself, either sign
 }
+
+
+DISC_NORMS = ("policy", "expert")
 
 
 @dataclass
@@ -77,9 +80,17 @@ class AdversarialConfig(ImitationTRPOConfig):
     positive: pays for every step alive) or "log D" (always negative: pays for ending early)."""
     absorbing: bool = True
     """Terminations lead into an absorbing state that D judges (bench.rl.absorbing); off: valued 0."""
+    disc_norm: str = added_later("policy")
+    """How D scales the states it judges: "policy" (the policy's running statistics, shared with
+    it) or "expert" (the demonstrations' statistics, fixed, as the off-policy learners' D).
+    States only; frames are scaled to [0, 1] either way."""
 
     def __post_init__(self) -> None:
         super().__post_init__()
+        if self.disc_norm not in DISC_NORMS:
+            raise ValueError(
+                f"disc_norm must be one of {', '.join(DISC_NORMS)}, not {self.disc_norm!r}"
+            )
         for name in ("disc_steps", "disc_minibatch"):
             if getattr(self, name) < 1:
                 raise ValueError(f"{name} must be >= 1, not {getattr(self, name)}")
@@ -90,6 +101,22 @@ class AdversarialConfig(ImitationTRPOConfig):
                 f"reward must be one of {', '.join(map(repr, REWARDS))}, not {self.reward!r}"
             )
         self.disc_hidden = tuple(self.disc_hidden)
+
+
+def disc_normalizer(
+    task: Task, policy_norm: RunningNorm | PixelScale, demos: Demos, how: str
+) -> RunningNorm | PixelScale:
+    """What D scales its input with. States: the policy's running statistics ("policy"), or the
+    demonstrations' fixed ones ("expert": then a state's scale does not drift as the policy
+    learns, and D weighs each feature by how far it lies from the expert's spread of it).
+    Frames the policy never sees (video filmed beside states): their own fixed scale."""
+    if task.judged_shape != task.obs_shape:
+        return normalizer(task.judged_shape)
+    if how == "policy" or not isinstance(policy_norm, RunningNorm):
+        return policy_norm
+    norm = RunningNorm(policy_norm.mean.numel())
+    norm.update(np.concatenate(demos.observations))
+    return norm
 
 
 Features = Callable[[torch.Tensor, torch.Tensor, torch.Tensor], torch.Tensor]
@@ -233,10 +260,7 @@ def train_adversarial(
         demos.observations, demos.terminated, expert_actions, cfg.absorbing, cfg.gamma
     )
     expert_x = expert.map(torch.as_tensor)
-    # D normalizes what it judges as the policy does, with the policy's running statistics,
-    # unless it judges frames the policy never sees (video filmed beside states).
-    shared = task.judged_shape == task.obs_shape
-    norm = learner.policy.norm if shared else normalizer(task.judged_shape)
+    norm = disc_normalizer(task, learner.policy.norm, demos, cfg.disc_norm)
     disc = Discriminator(
         norm, features, task.judged_shape, task.act_dim, cfg.disc_hidden, cfg.absorbing
     )

@@ -99,6 +99,25 @@ class Logger(Protocol):
         """Record diagnostics (e.g. discriminator accuracy) at `env_steps`."""
 
 
+ADDED_LATER = "added_later"
+"""Field metadata key of a config setting added after records were made with its config."""
+
+
+def added_later(default: Any) -> Any:
+    """A config dataclass field added after records of its algorithm exist: at its default it is
+    left out of trial ids, so those records keep theirs; any other value is a new trial."""
+    return dataclasses.field(default=default, metadata={ADDED_LATER: True})
+
+
+def id_neutral_at_default(config: Any) -> set[str]:
+    """The `added_later` fields of a config instance that are at their defaults."""
+    return {
+        f.name
+        for f in dataclasses.fields(config)
+        if f.metadata.get(ADDED_LATER) and getattr(config, f.name) == f.default
+    }
+
+
 class TrainFn(Protocol):
     def __call__(
         self, task: Task, demos: Any, budget: int, seed: int, logger: Logger, config: Any

@@ -8,3 +8,35 @@ def test_reward_forms_have_the_documented_signs():
     assert (REWARDS["-log(1-D)"](logit) > 0).all()
     assert (REWARDS["log D"](logit) < 0).all()
     assert torch.equal(REWARDS["log D - log(1-D)"](logit), logit)
+
+
+def test_d_scales_states_by_the_policy_or_by_the_demonstrations():
+    import numpy as np
+
+    from algorithms.adversarial import disc_normalizer
+    from bench.registry import Task
+    from bench.rl.networks import RunningNorm
+    from bench.types import Demos
+
+    task = Task("X", 3, 1, np.array([-1.0]), np.array([1.0]), make_env=None)
+    rng = np.random.default_rng(0)
+    episodes = tuple(rng.normal(5.0, 2.0, size=(50, 3)).astype(np.float32) for _ in range(2))
+    demos = Demos("X", episodes)
+    policy_norm = RunningNorm(3)
+    assert disc_normalizer(task, policy_norm, demos, "policy") is policy_norm
+    expert = disc_normalizer(task, policy_norm, demos, "expert")
+    assert expert is not policy_norm  # fixed: the policy's updates do not move it
+    states = np.concatenate(episodes)
+    np.testing.assert_allclose(expert.mean.numpy(), states.mean(0), rtol=1e-5)
+    np.testing.assert_allclose(expert.var.numpy(), states.var(0), rtol=1e-4)
+    policy_norm.update(rng.normal(size=(100, 3)))
+    np.testing.assert_allclose(expert.mean.numpy(), states.mean(0), rtol=1e-5)
+
+
+def test_an_unknown_d_scale_is_refused():
+    import pytest
+
+    from algorithms.adversarial import AdversarialConfig
+
+    with pytest.raises(ValueError, match="disc_norm must be one of policy, expert"):
+        AdversarialConfig(disc_norm="nope")

@@ -561,3 +561,25 @@ def test_an_envs_hyperparams_reach_every_algorithm_that_has_them_there_and_no_ot
         else:  # the env's hyperparams over its trpo settings, under the entry's own
             want = (4e-4 if spec.label == "own" else 0.01, 16)
             assert (spec.hyperparams["disc_lr"], spec.hyperparams["n_envs"]) == want
+
+
+@dataclass
+class IfoConfigLater(IfoConfig):
+    """IfoConfig with a setting added after its records were made."""
+
+    scale: float = registry.added_later(1.0)
+
+
+def test_a_setting_added_later_keeps_the_ids_of_records_made_before_it(tmp_path):
+    raw = base()
+    raw["envs"][HOPPER]["hyperparams"] = {"lr": 0.02}  # resolved: the full config in the id
+    path = write(tmp_path, raw)
+    before = [s.trial_id for s in expand(load_suite(path)) if s.algorithm == "ifo"]
+    registry._ALGORITHMS["ifo"] = registry.Algorithm("ifo", _train, IfoConfigLater, "states")
+    after = [s for s in expand(load_suite(path)) if s.algorithm == "ifo"]
+    assert [s.trial_id for s in after] == before
+    assert any("steps" in s.hyperparams for s in after)  # resolved, and without the new key
+    assert not any("scale" in s.hyperparams for s in after)
+    raw["algorithms"][2] = {"ifo": {"lr": 0.01, "scale": 2.0}}
+    changed = [s for s in expand(load_suite(write(tmp_path, raw))) if s.algorithm == "ifo"]
+    assert not {s.trial_id for s in changed} & set(before)  # away from its default: new trials

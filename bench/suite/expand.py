@@ -119,4 +119,10 @@ def _fields(config: type) -> dict[str, dataclasses.Field]:
 
 def _resolve(algo: registry.Algorithm, overrides: dict[str, Any]) -> dict[str, Any]:
     # Specs carry the full resolved config, defaults included: a changed default is a new id.
-    return json.loads(json.dumps(dataclasses.asdict(algo.make_config(overrides))))
+    # A setting added later is left out at its default, so the records made before it existed
+    # keep their ids (they ran at that default).
+    config = algo.make_config(overrides)
+    resolved = json.loads(json.dumps(dataclasses.asdict(config)))
+    for name in registry.id_neutral_at_default(config):
+        del resolved[name]
+    return resolved
