@@ -55,6 +55,7 @@ REWARDS: dict[str, Callable[[torch.Tensor], torch.Tensor]] = {
 
 
 DISC_NORMS = ("policy", "expert")
+"""How D may scale states: by the policy's running statistics, or the demonstrations' fixed ones."""
 
 
 @dataclass
@@ -89,7 +90,7 @@ class AdversarialConfig(ImitationTRPOConfig):
         super().__post_init__()
         if self.disc_norm not in DISC_NORMS:
             raise ValueError(
-                f"disc_norm must be one of {', '.join(DISC_NORMS)}, not {self.disc_norm!r}"
+                f"disc_norm must be one of {', '.join(map(repr, DISC_NORMS))}, not {self.disc_norm!r}"
             )
         for name in ("disc_steps", "disc_minibatch"):
             if getattr(self, name) < 1:
@@ -104,19 +105,18 @@ class AdversarialConfig(ImitationTRPOConfig):
 
 
 def disc_normalizer(
-    task: Task, policy_norm: RunningNorm | PixelScale, demos: Demos, how: str
+    task: Task, policy_norm: RunningNorm | PixelScale, demos: Demos, disc_norm: str
 ) -> RunningNorm | PixelScale:
     """What D scales its input with. States: the policy's running statistics ("policy"), or the
     demonstrations' fixed ones ("expert": then a state's scale does not drift as the policy
     learns, and D weighs each feature by how far it lies from the expert's spread of it).
-    Frames the policy never sees (video filmed beside states): their own fixed scale."""
+    Frames have a fixed scale whatever `disc_norm` says: the policy's own frames share the
+    policy's, and frames the policy never sees (video filmed beside states) get their own."""
     if task.judged_shape != task.obs_shape:
         return normalizer(task.judged_shape)
-    if how == "policy" or not isinstance(policy_norm, RunningNorm):
+    if disc_norm == "policy" or task.pixels is not None:
         return policy_norm
-    norm = RunningNorm(policy_norm.mean.numel())
-    norm.update(np.concatenate(demos.observations))
-    return norm
+    return RunningNorm.of(np.concatenate(demos.observations))
 
 
 Features = Callable[[torch.Tensor, torch.Tensor, torch.Tensor], torch.Tensor]
@@ -126,7 +126,7 @@ GAIfO uses (s, s'), GAIL (s, a)."""
 
 
 class Discriminator(nn.Module):
-    """Logit of P(expert | transition); observations normalized with the policy's statistics.
+    """Logit of P(expert | transition), of observations scaled by `norm` (`disc_normalizer`).
 
     From frames, each observation first goes through D's own convolutional trunk, and D judges
     (and its gradient penalty smooths) the features of s and s' like state vectors.

@@ -140,8 +140,7 @@ def train_offpolicy_adversarial(
     cfg: OffPolicyAdversarialConfig,
 ) -> Policy:
     expert = expert_replay(demos, expert_actions, task.act_dim, cfg.absorbing)
-    norm = RunningNorm(task.obs_dim)  # D's scale: the expert's states, fixed
-    norm.update(np.concatenate(demos.observations))
+    norm = RunningNorm.of(np.concatenate(demos.observations))  # D's scale: the expert's, fixed
     disc = Discriminator(norm, features, task.obs_dim, task.act_dim, cfg.disc_hidden, True)
     reward_fn = current_d_reward(disc, expert, cfg, seed)
     return train_on_reward(task, budget, seed, logger, cfg, reward_fn)

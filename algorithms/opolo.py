@@ -137,8 +137,8 @@ class OPOLO:
         self.buffer = sac.ReplayBuffer(obs_dim, act_dim, cfg.buffer_size, seed)
 
         self.expert = expert_replay(demos, None, act_dim, absorbing=False)
-        norm = RunningNorm(obs_dim)  # D's and M's scale: the expert's states, fixed
-        norm.update(np.concatenate(demos.observations))
+        # D's and M's scale: the expert's states, fixed
+        norm = RunningNorm.of(np.concatenate(demos.observations))
         self.disc = StateTransitionD(norm, obs_dim, cfg.disc_hidden)
         self.inverse = InverseModel(norm, obs_dim, act_dim, cfg.disc_hidden)
         self.disc_opt = torch.optim.Adam(self.disc.net.parameters(), lr=cfg.disc_lr)
@@ -241,10 +241,10 @@ class OPOLO:
                 inferred = self.inverse(expert)
             with sac.frozen(self.critic):
                 q = torch.min(*self.critic(batch.obs, self.actor.act(batch.obs))).mean()
-                imitation = (self.actor.act(expert.obs) - inferred).square().sum(-1).mean()
-                actor_loss = -dual * q + cfg.inverse_weight * imitation
-                self.actor_opt.zero_grad()
-                actor_loss.backward()
+            imitation = (self.actor.act(expert.obs) - inferred).square().sum(-1).mean()
+            actor_loss = -dual * q + cfg.inverse_weight * imitation
+            self.actor_opt.zero_grad()
+            actor_loss.backward()
             self.actor_opt.step()
             with torch.no_grad():
                 for target_net, net in (

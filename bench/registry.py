@@ -105,17 +105,17 @@ ADDED_LATER = "added_later"
 
 def added_later(default: Any) -> Any:
     """A config dataclass field added after records of its algorithm exist: at its default it is
-    left out of trial ids, so those records keep theirs; any other value is a new trial."""
+    left out of trial ids, so those records keep theirs; any other value is a new trial.
+
+    The default is what the old records ran with, so it can never change: a new default would
+    share their ids. It must be immutable and plain JSON (a number, string, bool or None). A
+    subclass that redeclares the field redeclares it with `added_later` too."""
     return dataclasses.field(default=default, metadata={ADDED_LATER: True})
 
 
-def id_neutral_at_default(config: Any) -> set[str]:
-    """The `added_later` fields of a config instance that are at their defaults."""
-    return {
-        f.name
-        for f in dataclasses.fields(config)
-        if f.metadata.get(ADDED_LATER) and getattr(config, f.name) == f.default
-    }
+def added_later_defaults(config: type) -> dict[str, Any]:
+    """A config dataclass's `added_later` fields and their defaults."""
+    return {f.name: f.default for f in dataclasses.fields(config) if f.metadata.get(ADDED_LATER)}
 
 
 class TrainFn(Protocol):

@@ -58,7 +58,7 @@ def test_figure2_panels_bars_and_labels():
     assert fig.get_suptitle()
 
 
-def test_figure2_legend_is_no_wider_than_its_panels():
+def test_figure2_legend_is_no_wider_than_the_figure():
     """Long control labels wrap the legend into more rows instead of widening the figure (which
     would shrink the panels wherever the figure is shown at a fixed width)."""
     one_env = frame().query("env_id == @ENVS[0]")

@@ -183,6 +183,16 @@ def test_select_by_demo_count_keeps_the_trials_without_demonstrations(tmp_path):
     assert chosen == [s for s in specs if s.n_demos in (0, counts[0])]
     with pytest.raises(SuiteError, match=r"x\.yaml: 7777 is not one of the suite's demo counts"):
         select(specs, path, demos=[7777])
+    only_random = select(specs, path, algorithm=["random"], demos=[counts[0]])
+    assert only_random == [s for s in specs if s.algorithm == "random"]  # checked against all
+
+
+def test_a_selection_with_no_trial_fails(tmp_path):
+    raw = base()
+    raw["envs"][HOPPER]["seeds"] = {"ifo": 0}  # ifo runs on the pendulum only
+    path = write(tmp_path, raw)
+    with pytest.raises(SuiteError, match=r"x\.yaml: no trial of the suite has all of: envs \["):
+        select(expand(load_suite(path)), path, env=[HOPPER], algorithm=["ifo"])
 
 
 @pytest.mark.parametrize("key", ["env", "algorithm"])
@@ -580,6 +590,9 @@ def test_a_setting_added_later_keeps_the_ids_of_records_made_before_it(tmp_path)
     assert [s.trial_id for s in after] == before
     assert any("steps" in s.hyperparams for s in after)  # resolved, and without the new key
     assert not any("scale" in s.hyperparams for s in after)
+    raw["algorithms"][2] = {"ifo": {"lr": 0.01, "scale": 1.0}}  # its default, spelled out
+    spelled = [s for s in expand(load_suite(write(tmp_path, raw))) if s.algorithm == "ifo"]
+    assert [s.trial_id for s in spelled] == before
     raw["algorithms"][2] = {"ifo": {"lr": 0.01, "scale": 2.0}}
     changed = [s for s in expand(load_suite(write(tmp_path, raw))) if s.algorithm == "ifo"]
     assert not {s.trial_id for s in changed} & set(before)  # away from its default: new trials

@@ -28,6 +28,14 @@ class RunningNorm(nn.Module):
         self.register_buffer("var", torch.ones(dim, dtype=torch.float64))
         self.register_buffer("count", torch.tensor(eps, dtype=torch.float64))
 
+    @classmethod
+    def of(cls, states: np.ndarray) -> RunningNorm:
+        """A norm at the statistics of (N, O) `states`, e.g. an expert's; fixed, as nothing
+        calls its `update` after."""
+        norm = cls(states.shape[1])
+        norm.update(states)
+        return norm
+
     @torch.no_grad()
     def update(self, x: np.ndarray) -> None:
         """Fold a (B, O) batch into the statistics (parallel Welford)."""

@@ -260,7 +260,7 @@ class SAC:
         self.log_alpha = torch.zeros(1, requires_grad=True)
         self.target_entropy = -float(act_dim)
         # foreach: one batched kernel per Adam step instead of a loop over tensors; the same
-        # numbers to the bit, ~5% less time per update on a CPU.
+        # numbers to the bit (checked with torch 2.13), ~5% less time per update on a CPU.
         self.actor_opt = torch.optim.Adam(self.actor.parameters(), lr=cfg.lr, foreach=True)
         self.critic_opt = torch.optim.Adam(self.critic.parameters(), lr=cfg.lr, foreach=True)
         self.alpha_opt = torch.optim.Adam([self.log_alpha], lr=cfg.lr)
@@ -287,9 +287,9 @@ class SAC:
         actions, log_prob = self.actor.sample(batch.obs)
         with frozen(self.critic):
             q = torch.min(*self.critic(batch.obs, actions))
-            actor_loss = (alpha * log_prob - q).mean()
-            self.actor_opt.zero_grad()
-            actor_loss.backward()
+        actor_loss = (alpha * log_prob - q).mean()
+        self.actor_opt.zero_grad()
+        actor_loss.backward()
         self.actor_opt.step()
 
         alpha_loss = -(self.log_alpha * (log_prob.detach() + self.target_entropy)).mean()
@@ -312,14 +312,17 @@ class SAC:
 
 @contextmanager
 def frozen(net: nn.Module) -> Iterator[None]:
-    """No weight gradients for `net` inside (the actor's loss backpropagates through the
-    critic only to reach the actor): ~10% of a SAC update saved, the same numbers to the bit,
-    since the critic's optimizer clears its gradients before its own step."""
+    """Forward passes of `net` inside record no gradients for its weights (the actor's loss
+    backpropagates through the critic only to reach the actor): ~10% of a SAC update saved,
+    the same numbers to the bit, since the critic's optimizer clears its gradients before its
+    own step. Each weight's flag is restored as it was."""
+    flags = [p.requires_grad for p in net.parameters()]
     net.requires_grad_(False)
     try:
         yield
     finally:
-        net.requires_grad_(True)
+        for p, flag in zip(net.parameters(), flags, strict=True):
+            p.requires_grad_(flag)
 
 
 class OffPolicyLearner(Protocol):

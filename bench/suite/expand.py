@@ -60,24 +60,27 @@ def select(
     names = {
         "env_id": lambda s: {s.env_id},
         "algorithm": lambda s: {s.algorithm, s.shown},  # a variant by label, or all by algorithm
+        "n_demos": lambda s: {s.n_demos} if s.n_demos else set(),
     }
-    for key, label, wanted in (("env_id", "envs", env), ("algorithm", "algorithms", algorithm)):
-        if wanted is None:
-            continue
+    wanted_by_key = (
+        ("env_id", "envs", env),
+        ("algorithm", "algorithms", algorithm),
+        ("n_demos", "demo counts", demos),
+    )
+    for key, label, wanted in wanted_by_key:  # checked against the whole suite, before filtering
         have = sorted(set().union(*(names[key](s) for s in specs)))
-        for name in wanted:
+        for name in wanted or ():
             if name not in have:
                 raise SuiteError(f"{source}: {name!r} is not one of the suite's {label}: {have}")
-        specs = [s for s in specs if names[key](s) & set(wanted)]
-    if demos is not None:
-        have_counts = sorted({s.n_demos for s in specs if s.n_demos})
-        for count in demos:
-            if count not in have_counts:
-                raise SuiteError(
-                    f"{source}: {count} is not one of the suite's demo counts: {have_counts}"
-                )
-        specs = [s for s in specs if s.n_demos == 0 or s.n_demos in demos]
-    return specs
+    chosen = specs
+    for key, _, wanted in wanted_by_key:
+        if wanted is not None:
+            # a demo count keeps the trials that take none (names[...] is empty for them)
+            chosen = [s for s in chosen if names[key](s) & set(wanted) or not names[key](s)]
+    if specs and not chosen:
+        asked = ", ".join(f"{label} {wanted}" for _, label, wanted in wanted_by_key if wanted)
+        raise SuiteError(f"{source}: no trial of the suite has all of: {asked}")
+    return chosen
 
 
 def _spec(
@@ -108,7 +111,7 @@ def _hyperparams(env: EnvSettings, algo: AlgorithmEntry) -> dict[str, Any]:
     if env.trpo and issubclass(algorithm.config, TRPOConfig):
         from_env = {**env.trpo, **from_env}
     if not from_env:
-        return dict(algo.hyperparams)
+        return _without_added_later_defaults(algorithm, dict(algo.hyperparams))
     return _resolve(algorithm, {**from_env, **algo.overrides})
 
 
@@ -119,10 +122,14 @@ def _fields(config: type) -> dict[str, dataclasses.Field]:
 
 def _resolve(algo: registry.Algorithm, overrides: dict[str, Any]) -> dict[str, Any]:
     # Specs carry the full resolved config, defaults included: a changed default is a new id.
-    # A setting added later is left out at its default, so the records made before it existed
-    # keep their ids (they ran at that default).
-    config = algo.make_config(overrides)
-    resolved = json.loads(json.dumps(dataclasses.asdict(config)))
-    for name in registry.id_neutral_at_default(config):
-        del resolved[name]
-    return resolved
+    # Except a setting added later (`registry.added_later`), left out at its default, which can
+    # never change: the records made before it existed ran at it and keep their ids.
+    resolved = json.loads(json.dumps(dataclasses.asdict(algo.make_config(overrides))))
+    return _without_added_later_defaults(algo, resolved)
+
+
+def _without_added_later_defaults(algo: registry.Algorithm, hyperparams: dict) -> dict:
+    """`hyperparams` less the settings added later that are at their defaults (those records
+    ran at them before the settings existed), however the suite spelled them."""
+    defaults = registry.added_later_defaults(algo.config)
+    return {k: v for k, v in hyperparams.items() if k not in defaults or v != defaults[k]}
