@@ -51,7 +51,7 @@ def add(sub: argparse._SubParsersAction) -> None:
         " count) from the same start state and film them side by side, each titled with the"
         " normalized return its record scored.",
     )
-    vid.add_argument("results", type=Path, help="a results folder, e.g. results/locomotion")
+    vid.add_argument("results", type=Path, help="a results folder, e.g. results/pybullet")
     vid.add_argument("--out", type=Path, required=True, help="FILE.gif or FILE.mp4")
     vid.add_argument("--env", metavar="ID", help="the env (needed where the folder has several)")
     vid.add_argument(
