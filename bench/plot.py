@@ -290,7 +290,8 @@ def _legend_and_titles(fig: Figure, handles: list, title: str, starred: Collecti
         Line2D([], [], color=color, linestyle="--", linewidth=1.0, label=label)
         for color, label in REFERENCE_LINES.values()
     ]
-    # As few rows as fit, then more while the legend is wider than the panels: a legend that
+    fig.suptitle(title, fontweight="bold")
+    # As few rows as fit, then more while the legend is wider than the figure: a legend that
     # overhangs widens the saved figure (bbox_inches="tight"), so a page or a README shrinks
     # the panels, and their text, to fit it.
     columns = _legend_columns(len(handles), panels_across=min(3, len(fig.axes)))
@@ -310,9 +311,7 @@ def _legend_and_titles(fig: Figure, handles: list, title: str, starred: Collecti
         legend.remove()
         rows = math.ceil(len(handles) / columns) + 1
         columns = min(columns - 1, math.ceil(len(handles) / rows))
-    fig.suptitle(title, fontweight="bold")
-    if starred:
-        fig.draw_without_rendering()
+    if starred:  # under the legend, where the last layout put it
         box = legend.get_window_extent().transformed(fig.transFigure.inverted())
         fig.text(
             box.x1, box.y0, ACTIONS_FOOTNOTE, ha="right", va="top", fontsize="small", color="0.3"

@@ -1,6 +1,12 @@
+import numpy as np
+import pytest
 import torch
 
-from algorithms.adversarial import REWARDS
+from algorithms.adversarial import REWARDS, AdversarialConfig, disc_normalizer
+from bench.pixels import PixelConfig
+from bench.registry import Task
+from bench.rl.networks import PixelScale, RunningNorm
+from bench.types import Demos
 
 
 def test_reward_forms_have_the_documented_signs():
@@ -11,13 +17,6 @@ def test_reward_forms_have_the_documented_signs():
 
 
 def test_d_scales_states_by_the_policy_or_by_the_demonstrations():
-    import numpy as np
-
-    from algorithms.adversarial import disc_normalizer
-    from bench.registry import Task
-    from bench.rl.networks import RunningNorm
-    from bench.types import Demos
-
     task = Task("X", 3, 1, np.array([-1.0]), np.array([1.0]), make_env=None)
     rng = np.random.default_rng(0)
     episodes = tuple(rng.normal(5.0, 2.0, size=(50, 3)).astype(np.float32) for _ in range(2))
@@ -30,9 +29,6 @@ def test_d_scales_states_by_the_policy_or_by_the_demonstrations():
     np.testing.assert_allclose(expert.mean.numpy(), states.mean(0), rtol=1e-5)
     np.testing.assert_allclose(expert.var.numpy(), states.var(0), rtol=1e-4)
     # frames keep their fixed scale whatever disc_norm says
-    from bench.pixels import PixelConfig
-    from bench.rl.networks import PixelScale
-
     frames = PixelConfig(size=8)
     seen = Task("X", int(np.prod(frames.shape)), 1, task.action_low, task.action_high, None, frames)
     scale = PixelScale(frames.shape)
@@ -40,9 +36,5 @@ def test_d_scales_states_by_the_policy_or_by_the_demonstrations():
 
 
 def test_an_unknown_d_scale_is_refused():
-    import pytest
-
-    from algorithms.adversarial import AdversarialConfig
-
     with pytest.raises(ValueError, match="disc_norm must be one of 'policy', 'expert'"):
         AdversarialConfig(disc_norm="nope")

@@ -111,7 +111,7 @@ def _hyperparams(env: EnvSettings, algo: AlgorithmEntry) -> dict[str, Any]:
     if env.trpo and issubclass(algorithm.config, TRPOConfig):
         from_env = {**env.trpo, **from_env}
     if not from_env:
-        return _without_added_later_defaults(algorithm, dict(algo.hyperparams))
+        return _without_added_later_defaults(algorithm, algo.hyperparams)
     return _resolve(algorithm, {**from_env, **algo.overrides})
 
 
@@ -129,7 +129,7 @@ def _resolve(algo: registry.Algorithm, overrides: dict[str, Any]) -> dict[str, A
 
 
 def _without_added_later_defaults(algo: registry.Algorithm, hyperparams: dict) -> dict:
-    """`hyperparams` less the settings added later that are at their defaults (those records
-    ran at them before the settings existed), however the suite spelled them."""
+    """A new dict of `hyperparams` less the settings added later that are at their defaults
+    (those records ran at them before the settings existed), however the suite spelled them."""
     defaults = registry.added_later_defaults(algo.config)
     return {k: v for k, v in hyperparams.items() if k not in defaults or v != defaults[k]}
