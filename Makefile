@@ -28,11 +28,12 @@ run: install
 	$(BIN)/bench plot $(RUN)
 	$(BIN)/bench compare $(RUN) $(REFERENCE)
 
+# pytest -n 2: most tests run in one process, so two workers keep both cores of a laptop busy.
 test: install
 	$(BIN)/ruff check .
 	$(BIN)/ruff format --check .
 	NO_MKDOCS_2_WARNING=1 $(BIN)/mkdocs build --strict --quiet --site-dir build/site
-	$(BIN)/python -m pytest -q
+	$(BIN)/python -m pytest -q -n 2
 
 docs: install
 	NO_MKDOCS_2_WARNING=1 $(BIN)/mkdocs serve

@@ -239,7 +239,7 @@ class OPOLO:
             expert = self._expert_batch(cfg.batch_size)
             with torch.no_grad():
                 inferred = self.inverse(expert)
-            with sac.frozen(self.critic):
+            with sac.frozen(self.critic.parameters()):
                 q = torch.min(*self.critic(batch.obs, self.actor.act(batch.obs))).mean()
             imitation = (self.actor.act(expert.obs) - inferred).square().sum(-1).mean()
             actor_loss = -dual * q + cfg.inverse_weight * imitation

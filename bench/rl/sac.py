@@ -18,8 +18,9 @@ what follows is 0), the textbook SAC.
 from __future__ import annotations
 
 import copy
+import math
 import time
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterable, Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass
 from typing import Protocol
@@ -181,7 +182,7 @@ class Actor(nn.Module):
         u = mean + log_std.exp() * torch.randn_like(mean)
         squashed = torch.tanh(u)
         log_prob = (
-            torch.distributions.Normal(mean, log_std.exp()).log_prob(u)
+            gaussian_log_prob(u, mean, log_std.exp())
             - torch.log(self.scale * (1 - squashed.square()) + 1e-6)
         ).sum(-1)
         return squashed * self.scale + self.centre, log_prob
@@ -189,6 +190,16 @@ class Actor(nn.Module):
     def act(self, obs: torch.Tensor) -> torch.Tensor:
         """The deterministic action: the squashed mean."""
         return torch.tanh(self(obs)[0]) * self.scale + self.centre
+
+
+def gaussian_log_prob(x: torch.Tensor, mean: torch.Tensor, std: torch.Tensor) -> torch.Tensor:
+    """`torch.distributions.Normal(mean, std).log_prob(x)`, its very operations in its order
+    (the same numbers to the bit), without building and validating a distribution per call:
+    ~5% of a small network's update."""
+    return -((x - mean) ** 2) / (2 * std**2) - std.log() - _LOG_SQRT_2PI
+
+
+_LOG_SQRT_2PI = math.log(math.sqrt(2 * math.pi))
 
 
 class TwinQ(nn.Module):
@@ -264,6 +275,10 @@ class SAC:
         self.actor_opt = torch.optim.Adam(self.actor.parameters(), lr=cfg.lr, foreach=True)
         self.critic_opt = torch.optim.Adam(self.critic.parameters(), lr=cfg.lr, foreach=True)
         self.alpha_opt = torch.optim.Adam([self.log_alpha], lr=cfg.lr)
+        # Listed once: walking a module's tree for its parameters costs more than the
+        # operations on them at these network sizes.
+        self.critic_params = list(self.critic.parameters())
+        self.target_params = list(self.target.parameters())
         self.buffer = ReplayBuffer(obs_dim, act_dim, cfg.buffer_size, seed)
 
     def explore(self, obs: torch.Tensor) -> torch.Tensor:
@@ -285,7 +300,7 @@ class SAC:
         self.critic_opt.step()
 
         actions, log_prob = self.actor.sample(batch.obs)
-        with frozen(self.critic):
+        with frozen(self.critic_params):
             q = torch.min(*self.critic(batch.obs, actions))
         actor_loss = (alpha * log_prob - q).mean()
         self.actor_opt.zero_grad()
@@ -298,10 +313,7 @@ class SAC:
         self.alpha_opt.step()
 
         with torch.no_grad():
-            for mine, theirs in zip(
-                self.target.parameters(), self.critic.parameters(), strict=True
-            ):
-                mine.lerp_(theirs, self.cfg.tau)
+            torch._foreach_lerp_(self.target_params, self.critic_params, self.cfg.tau)
         return {
             "critic_loss": critic_loss.item(),
             "actor_loss": actor_loss.item(),
@@ -311,17 +323,19 @@ class SAC:
 
 
 @contextmanager
-def frozen(net: nn.Module) -> Iterator[None]:
-    """Forward passes of `net` inside record no gradients for its weights (the actor's loss
-    backpropagates through the critic only to reach the actor): ~10% of a SAC update saved,
-    the same numbers to the bit, since the critic's optimizer clears its gradients before its
-    own step. Each weight's flag is restored as it was."""
-    flags = [p.requires_grad for p in net.parameters()]
-    net.requires_grad_(False)
+def frozen(params: Iterable[nn.Parameter]) -> Iterator[None]:
+    """Forward passes inside record no gradients for `params`, a network's weights (the
+    actor's loss backpropagates through the critic only to reach the actor): ~10% of a SAC
+    update saved, the same numbers to the bit, since the critic's optimizer clears its
+    gradients before its own step. Each weight's flag is restored as it was."""
+    params = list(params)
+    flags = [p.requires_grad for p in params]
+    for p in params:
+        p.requires_grad_(False)
     try:
         yield
     finally:
-        for p, flag in zip(net.parameters(), flags, strict=True):
+        for p, flag in zip(params, flags, strict=True):
             p.requires_grad_(flag)
 
 
