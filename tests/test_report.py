@@ -204,6 +204,24 @@ def test_cost_per_trial(written, table_rows, table_rule):
     assert [cell.endswith(":") for cell in rule] == [False, False, True, True, True, True]
 
 
+def test_fast_metrics_are_rliables_to_the_bit():
+    """The bootstraps' IQM and probability of improvement, against rliable's own, on score
+    tables of every shape a suite gives: ties (scores on a grid), equal columns, one run."""
+    rng = np.random.default_rng(0)
+    for case in range(600):
+        runs_x, runs_y, tasks = rng.integers(1, 11, size=3)
+        if case % 3 == 0:  # ties
+            x, y = (rng.integers(0, 3, size=(n, tasks)) / 3 for n in (runs_x, runs_y))
+        else:
+            x, y = (rng.normal(size=(n, tasks)) for n in (runs_x, runs_y))
+        if case % 3 == 2:  # columns that are equal
+            y = x.copy()
+        assert stats.probability_of_improvement_over(x, y) == (
+            stats.metrics.probability_of_improvement(x, y)
+        ), (x, y)
+        assert stats.aggregate_iqm(x) == stats.metrics.aggregate_iqm(x), x
+
+
 def test_iqm_curves_are_rliable_iqm_per_step():
     rows = [
         ("E", "gaifo", 1, seed, step, value)
