@@ -135,6 +135,10 @@ class OPOLO:
         self.actor_opt = torch.optim.Adam(self.actor.parameters(), lr=cfg.lr, foreach=True)
         self.critic_opt = torch.optim.Adam(self.critic.parameters(), lr=cfg.lr, foreach=True)
         self.buffer = sac.ReplayBuffer(obs_dim, act_dim, cfg.buffer_size, seed)
+        # Listed once, as SAC lists its own: targets first, then what each follows.
+        self.critic_params = list(self.critic.parameters())
+        self.targets = [*self.actor_target.parameters(), *self.critic_target.parameters()]
+        self.followed = [*self.actor.parameters(), *self.critic_params]
 
         self.expert = expert_replay(demos, None, act_dim, absorbing=False)
         # D's and M's scale: the expert's states, fixed
@@ -239,20 +243,14 @@ class OPOLO:
             expert = self._expert_batch(cfg.batch_size)
             with torch.no_grad():
                 inferred = self.inverse(expert)
-            with sac.frozen(self.critic.parameters()):
+            with sac.frozen(self.critic_params):
                 q = torch.min(*self.critic(batch.obs, self.actor.act(batch.obs))).mean()
             imitation = (self.actor.act(expert.obs) - inferred).square().sum(-1).mean()
             actor_loss = -dual * q + cfg.inverse_weight * imitation
             self.actor_opt.zero_grad()
             actor_loss.backward()
             self.actor_opt.step()
-            with torch.no_grad():
-                for target_net, net in (
-                    (self.actor_target, self.actor),
-                    (self.critic_target, self.critic),
-                ):
-                    for mine, theirs in zip(target_net.parameters(), net.parameters(), strict=True):
-                        mine.lerp_(theirs, cfg.tau)
+            sac.soft_update(self.targets, self.followed, cfg.tau)
             self.stats.update(actor_q=q.item(), inverse_gap=imitation.item())
         return dict(self.stats)
 

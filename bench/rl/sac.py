@@ -312,14 +312,20 @@ class SAC:
         alpha_loss.backward()
         self.alpha_opt.step()
 
-        with torch.no_grad():
-            torch._foreach_lerp_(self.target_params, self.critic_params, self.cfg.tau)
+        soft_update(self.target_params, self.critic_params, self.cfg.tau)
         return {
             "critic_loss": critic_loss.item(),
             "actor_loss": actor_loss.item(),
             "alpha": alpha.item(),
             "entropy": -log_prob.mean().item(),
         }
+
+
+@torch.no_grad()
+def soft_update(targets: list[nn.Parameter], sources: list[nn.Parameter], tau: float) -> None:
+    """Polyak averaging, targets <- targets + tau (sources - targets): every tensor in one
+    foreach call, the same per-tensor lerp as a loop (the same numbers to the bit)."""
+    torch._foreach_lerp_(targets, sources, tau)
 
 
 @contextmanager
