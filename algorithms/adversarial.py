@@ -87,9 +87,10 @@ class AdversarialConfig(ImitationTRPOConfig):
     States only; frames are scaled to [0, 1] either way."""
     disc_pause_above: float = added_later(1.0)
     """D takes no step in an update where it already tells more than this share of the policy's
-    new batch from the expert (judged before training); 1 never pauses. On Ant and on Hopper's
-    slow seed D is right on 0.99-1.00 of the policy's samples for hundreds of thousands of
-    steps while the policy makes no progress: a pause lets the policy gain on a fixed D."""
+    new batch from the expert (judged before training); 1 never pauses. Meant for where D is
+    right on 0.99-1.00 of the policy's samples for hundreds of thousands of steps while the
+    policy makes no progress (Ant's start, Hopper's slow seed). On Ant at 0.99 it did worse:
+    the policy never fooled the frozen D (docs: "D's pace per task")."""
 
     def __post_init__(self) -> None:
         super().__post_init__()
