@@ -198,7 +198,7 @@ def discriminator_step(
             idx = torch.randint(len(x), (cfg.disc_minibatch,), generator=gen)
         return disc.inputs(x.map(lambda field: field[idx]))
 
-    for _ in range(1 if pause else cfg.disc_steps):
+    for _ in range(cfg.disc_steps):
         p, e = minibatch(policy_x), minibatch(expert_x)
         logit_p, logit_e = disc.net(p).squeeze(-1), disc.net(e).squeeze(-1)
         bce = F.binary_cross_entropy_with_logits(
@@ -212,7 +212,7 @@ def discriminator_step(
             mix = (alpha * e + (1 - alpha) * p).detach().requires_grad_(True)
             grad = torch.autograd.grad(disc.net(mix).sum(), mix, create_graph=True)[0]
             penalty = (grad.norm(dim=1) - cfg.gp_target).square().mean()
-        if pause:
+        if pause:  # the first minibatch's losses, for the log
             break
         opt.zero_grad()
         (bce + cfg.grad_penalty * penalty).backward()
