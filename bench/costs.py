@@ -4,7 +4,8 @@ wall times of finished records."""
 from __future__ import annotations
 
 import threading
-from collections.abc import Iterable
+import time
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -109,3 +110,43 @@ def estimate(specs: list[TrialSpec], records: Iterable[TrialResult]) -> list[Est
             seconds, basis = None, f"no finished {algorithm} trial"
         out.append(Estimate(env_id, algorithm, len(group), seconds, basis))
     return out
+
+
+def seconds_each(specs: list[TrialSpec], records: Iterable[TrialResult]) -> dict[str, float | None]:
+    """Each trial's expected wall seconds on one core, by trial id, as `estimate` prices its
+    kind at its own budget (None: nothing to go by)."""
+    records = list(records)
+    groups: dict[tuple, list[TrialSpec]] = {}
+    for spec in specs:
+        groups.setdefault((*cost_kind(spec), spec.budget), []).append(spec)
+    out: dict[str, float | None] = {}
+    for group in groups.values():
+        (row,) = estimate(group, records)
+        out.update({spec.trial_id: row.seconds for spec in group})
+    return out
+
+
+@dataclass(frozen=True)
+class TimeLimit:
+    """A wall-clock end for a run: a trial starts only if its expected seconds (`seconds_each`)
+    fit in what is left, so none is cut off, and a run on a cluster's wall-clock allowance or
+    in a session that ends loses no work. A trial with nothing to go by never fits."""
+
+    deadline: float
+    """On `clock`'s scale."""
+    seconds: dict[str, float | None]
+    """Expected seconds by trial id."""
+    clock: Callable[[], float] = time.monotonic
+
+    @classmethod
+    def starting_now(
+        cls,
+        limit: float,
+        seconds: dict[str, float | None],
+        clock: Callable[[], float] = time.monotonic,
+    ) -> TimeLimit:
+        return cls(clock() + limit, seconds, clock)
+
+    def fits(self, spec: TrialSpec) -> bool:
+        expected = self.seconds.get(spec.trial_id)
+        return expected is not None and self.clock() + expected <= self.deadline

@@ -19,7 +19,7 @@ import joblib
 from tqdm import tqdm
 
 from bench import policies, store
-from bench.costs import CostModel
+from bench.costs import CostModel, TimeLimit
 from bench.trial import demo_pool, plan, run_trial
 from bench.types import TrialSpec
 
@@ -29,6 +29,8 @@ class RunSummary:
     done: int
     failed: int
     skipped: int
+    left: int = 0
+    """Pending trials not started: under a time limit, those that would not have fit."""
 
 
 def pending(specs: list[TrialSpec], have: dict[str, str], retry_failed: bool) -> list[TrialSpec]:
@@ -46,10 +48,12 @@ def _jobs(
     costs: CostModel,
     tensorboard: str | Path | None = None,
     first: Collection[str] = (),
+    limit: TimeLimit | None = None,
 ) -> Iterator:
     """The trials as joblib calls: those of the algorithms `first` (names or labels) before the
     others; within each group, kinds never timed first (to learn their cost), then the
-    dearest, so the last to finish are short."""
+    dearest, so the last to finish are short. Under a time `limit`, only those that still fit
+    as each starts: the dearest that fits, and none once none does."""
 
     first = set(first)
 
@@ -58,7 +62,10 @@ def _jobs(
 
     remaining = list(specs)
     while remaining:  # a generator: the next trial is chosen (and loaded) as a worker frees up
-        spec = max(remaining, key=order)  # first of equals: suite order
+        fitting = remaining if limit is None else [s for s in remaining if limit.fits(s)]
+        if not fitting:
+            return
+        spec = max(fitting, key=order)  # first of equals: suite order
         remaining.remove(spec)
         yield joblib.delayed(run_trial)(spec, plan(spec).inputs(), tensorboard)
 
@@ -73,10 +80,12 @@ def run_suite(
     progress: bool = True,
     tensorboard: str | Path | None = None,
     first: Collection[str] = (),
+    limit: TimeLimit | None = None,
 ) -> RunSummary:
     """Run every pending trial in parallel, writing each record as it finishes; with
     `tensorboard`, each trial's scalars go there live as TensorBoard events. The trials of
-    the algorithms `first` (names or labels) start before the others'."""
+    the algorithms `first` (names or labels) start before the others'. Under a time `limit`,
+    a trial starts only if it is expected to finish in time; the rest are left pending."""
     records = list(store.scan(results_dir))
     todo = pending(specs, {r.trial_id: r.status for r in records}, retry_failed)
     skipped = len(specs) - len(todo)
@@ -113,7 +122,7 @@ def run_suite(
             parallel = joblib.Parallel(
                 n_jobs=jobs, return_as="generator_unordered", pre_dispatch="n_jobs"
             )
-            for result in parallel(_jobs(todo, costs, tensorboard, first)):
+            for result in parallel(_jobs(todo, costs, tensorboard, first, limit)):
                 if result.policy is not None:  # before the record: a record implies its policy
                     policies.write(results_dir, result.trial_id, result.policy)
                 store.write(results_dir, result)
@@ -132,4 +141,4 @@ def run_suite(
         bar.close()
         if client is not None:
             client.close()
-    return RunSummary(done, failed, skipped)
+    return RunSummary(done, failed, skipped, left=len(todo) - done - failed)

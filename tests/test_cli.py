@@ -162,6 +162,8 @@ def test_experts_train_refuses_a_file_as_its_folder(tmp_path, cli):
     ("args", "message"),
     [
         (["run", "{suite}", "--jobs", "0"], "--jobs: must be >= 1, or -1"),
+        (["run", "{suite}", "--time-limit", "90"], "not a duration like 90m"),
+        (["run", "{suite}", "--time-limit", "0h"], "must be longer than 0"),
         (["run", "{suite}", "--results", "{file}"], "is a file, not a folder"),
         (["run", "{suite}", "--results", "{file}/under"], "cannot write results into"),
         (["run", "{suite}", "--tensorboard", "{file}"], "is a file, not a folder"),

@@ -14,7 +14,7 @@ import pytest
 from matplotlib.patches import Rectangle
 
 from bench import normalize, plot, store
-from bench.costs import CostModel, estimate
+from bench.costs import CostModel, TimeLimit, estimate
 from bench.runner import _jobs, run_suite
 from bench.suite import expand, load_suite
 from bench.types import TrialResult, TrialSpec
@@ -155,6 +155,43 @@ def test_dispatch_runs_unseen_kinds_then_the_costliest_first():
     jobs = _jobs([dear, unseen, *oracle, cheap], costs, first={"oracle"})
     order = [job[1][0] for job in jobs]
     assert order[:2] == oracle[::-1] and set(order[2:]) == {dear, unseen, cheap}
+
+
+def test_a_time_limit_starts_the_dearest_trial_that_still_fits_and_then_stops():
+    specs = [TrialSpec("t", PENDULUM, "gaifo", 1, seed, 1000, 1) for seed in range(4)]
+    seconds = {s.trial_id: float(c) for s, c in zip(specs[:3], (50, 30, 20), strict=True)}
+    seconds[specs[3].trial_id] = None  # nothing to go by: never fits
+    now = [0.0]
+    limit = TimeLimit.starting_now(60.0, seconds, clock=lambda: now[0])
+    costs = CostModel()
+    costs.observe(specs[0], 1.0)
+    jobs = _jobs(specs, costs, limit=limit)
+    assert next(jobs)[1][0] == specs[0]  # 50 s of 60 fits
+    now[0] = 35.0  # 25 s left: the 30-s trial no longer fits, the 20-s one does
+    assert next(jobs)[1][0] == specs[2]
+    assert next(jobs, None) is None  # 30 s and unpriced: neither fits, so the run ends
+
+
+def test_time_limit_leaves_the_trials_that_would_not_fit(tmp_path, cli):
+    results = tmp_path / "results"
+    body = f"envs: {{{PENDULUM}: {{budget: {{b}}}}}}\ndemos: [1]\nseeds: 2\neval_episodes: 2\n"
+    priced = write_suite(
+        tmp_path, "priced", body.replace("{b}", "4096") + "algorithms: [random, survival]\n"
+    )
+    out = cli("run", str(priced), "--results", str(results / "priced"), "--jobs", "2")
+    assert out.returncode == 0, out.stderr
+    # At 10,000x the budget a survival trial is priced at hours; a reference costs its
+    # evaluation at any budget.
+    suite = write_suite(
+        tmp_path, "limited", body.replace("{b}", "40960000") + "algorithms: [random, survival]\n"
+    )
+    run = ("run", str(suite), "--results", str(results / "limited"), "--jobs", "2")
+    out = cli(*run, "--time-limit", "10m")
+    assert out.returncode == 0, out.stderr
+    assert "2 trials done, 0 failed" in out.stdout and "2 trials not started" in out.stdout
+    assert {r.spec.algorithm for r in store.scan(results / "limited")} == {"random"}
+    out = cli(*run, "--estimate")
+    assert "2 of 4 trials pending" in out.stdout
 
 
 def test_two_variants_of_one_algorithm_run_and_plot_side_by_side(tmp_path, cli):

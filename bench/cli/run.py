@@ -7,7 +7,7 @@ import os
 import sys
 from pathlib import Path
 
-from bench.cli.args import folder, jobs_count
+from bench.cli.args import duration, folder, jobs_count
 
 
 def _run(args: argparse.Namespace) -> int:
@@ -31,6 +31,13 @@ def _run(args: argparse.Namespace) -> int:
 
             copied = reuse(specs, results, args.reuse)
             print(f"{copied} finished trials copied from {', '.join(args.reuse)}", file=sys.stderr)
+        limit = None
+        if args.time_limit is not None:  # priced as --estimate prices them, from now on
+            from bench.costs import TimeLimit, seconds_each
+
+            limit = TimeLimit.starting_now(
+                args.time_limit, seconds_each(specs, _priced_by(results))
+            )
         summary = run_suite(
             specs,
             results,
@@ -40,14 +47,27 @@ def _run(args: argparse.Namespace) -> int:
             retry_failed=args.retry_failed,
             tensorboard=args.tensorboard,
             first=suite.runner.first,
+            limit=limit,
         )
     print(
         f"{summary.done} trials done, {summary.failed} failed, "
         f"{summary.skipped} already finished (records in {results}/trials)"
     )
+    if summary.left:
+        print(
+            f"{summary.left} trials not started: not expected to finish within --time-limit"
+            " (--estimate prices them; run again to go on)"
+        )
     if summary.failed:
         print("rerun with --retry-failed to try the failed trials again", file=sys.stderr)
     return 1 if summary.failed else 0
+
+
+def _priced_by(results: Path) -> list:
+    """The records trials are priced by: every one under the results folder's parent."""
+    from bench import store
+
+    return [r for d in store.find_result_dirs(results.parent) for r in store.scan(d)]
 
 
 def _estimate(specs: list, results: Path, jobs: int) -> int:
@@ -58,8 +78,7 @@ def _estimate(specs: list, results: Path, jobs: int) -> int:
 
     finished = {r.trial_id: r.status for r in store.scan(results)}
     todo = pending(specs, finished, retry_failed=False)
-    records = [r for d in store.find_result_dirs(results.parent) for r in store.scan(d)]
-    rows = estimate(todo, records)
+    rows = estimate(todo, _priced_by(results))
     print(f"{len(todo)} of {len(specs)} trials pending -> {results}/")
     width = max([36, *(len(r.env_id) for r in rows)])
     print(
@@ -131,6 +150,13 @@ def add(sub: argparse._SubParsersAction) -> None:
         action="store_true",
         help="run nothing: print the pending trials' expected core-hours, from the records"
         " under the results folder's parent",
+    )
+    run.add_argument(
+        "--time-limit",
+        type=duration,
+        metavar="DURATION",
+        help="start only the trials expected to finish within DURATION from now (e.g. 2h30m;"
+        " priced as --estimate prices them), dearest first; leave the rest for a later run",
     )
     run.add_argument(
         "--backend",
