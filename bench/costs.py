@@ -48,14 +48,28 @@ class CostModel:
             total, n = self.totals.get(key, (0.0, 0))
             self.totals[key] = (total + wall_time / max(spec.budget, 1), n + 1)
 
-    def priority(self, spec: TrialSpec) -> tuple[int, float]:
-        """Higher runs sooner: never-seen kinds first (by budget), then by expected seconds."""
+    def seconds(self, spec: TrialSpec) -> float | None:
+        """Expected wall seconds of `spec` (None: its kind never timed)."""
         with self.lock:
             seen = self.totals.get(cost_kind(spec))
         if seen is None:
-            return (1, float(spec.budget))
+            return None
         total, n = seen
-        return (0, total / n * spec.budget)
+        return total / n * spec.budget
+
+    def priority(self, spec: TrialSpec) -> tuple[int, float]:
+        """Higher runs sooner: never-seen kinds first (by budget), then by expected seconds."""
+        seconds = self.seconds(spec)
+        return (1, float(spec.budget)) if seconds is None else (0, seconds)
+
+    def time_left(self, specs: Iterable[TrialSpec], workers: int) -> str:
+        """What `specs` should take on `workers` cores, for a progress bar: "~2.5 h", with
+        "+N unpriced" for trials of kinds never timed."""
+        expected = [self.seconds(spec) for spec in specs]
+        hours = sum(s for s in expected if s is not None) / 3600 / max(workers, 1)
+        text = f"~{hours:.1f} h" if hours >= 1 else f"~{hours * 60:.0f} min"
+        unpriced = sum(s is None for s in expected)
+        return text + (f" +{unpriced} unpriced" if unpriced else "")
 
 
 @dataclass(frozen=True)

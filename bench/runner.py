@@ -10,6 +10,7 @@ atomic file per finished trial, as results stream back.
 
 from __future__ import annotations
 
+import os
 import warnings
 from collections.abc import Collection, Iterator
 from dataclasses import dataclass
@@ -122,7 +123,14 @@ def run_suite(
             parallel = joblib.Parallel(
                 n_jobs=jobs, return_as="generator_unordered", pre_dispatch="n_jobs"
             )
+            if client is not None:
+                workers = sum(client.nthreads().values())
+            else:
+                workers = jobs if jobs > 0 else os.cpu_count() or 1
+            unfinished = {spec.trial_id: spec for spec in todo}
+            bar.set_postfix(left=costs.time_left(unfinished.values(), workers))
             for result in parallel(_jobs(todo, costs, tensorboard, first, limit)):
+                del unfinished[result.trial_id]
                 if result.policy is not None:  # before the record: a record implies its policy
                     policies.write(results_dir, result.trial_id, result.policy)
                 store.write(results_dir, result)
@@ -136,7 +144,10 @@ def run_suite(
                         f"failed: {result.spec.env_id} {result.spec.shown} seed {result.spec.seed}: {last[0]}"
                     )
                 bar.update(1)
-                bar.set_postfix(done=done, failed=failed)
+                # "left" counts the trials in flight in full: an upper bound.
+                bar.set_postfix(
+                    done=done, failed=failed, left=costs.time_left(unfinished.values(), workers)
+                )
     finally:
         bar.close()
         if client is not None:

@@ -194,6 +194,17 @@ def test_time_limit_leaves_the_trials_that_would_not_fit(tmp_path, cli):
     assert "2 of 4 trials pending" in out.stdout
 
 
+def test_time_left_is_the_expected_seconds_over_the_workers():
+    def spec(algorithm: str, seed: int, budget: int = 1000) -> TrialSpec:
+        return TrialSpec("t", PENDULUM, algorithm, 0, seed, budget, 1)
+
+    costs = CostModel()
+    costs.observe(spec("gaifo", 0), 1800.0)  # half an hour per 1,000 steps
+    todo = [spec("gaifo", 1), spec("gaifo", 2, budget=2000), spec("bco", 1)]
+    assert costs.time_left(todo[:2], workers=1) == "~1.5 h"
+    assert costs.time_left(todo, workers=2) == "~45 min +1 unpriced"
+
+
 def test_two_variants_of_one_algorithm_run_and_plot_side_by_side(tmp_path, cli):
     suite = write_suite(
         tmp_path,
