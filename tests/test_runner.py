@@ -174,24 +174,24 @@ def test_a_time_limit_starts_the_dearest_trial_that_still_fits_and_then_stops():
 
 def test_time_limit_leaves_the_trials_that_would_not_fit(tmp_path, cli):
     results = tmp_path / "results"
-    body = f"envs: {{{PENDULUM}: {{budget: {{b}}}}}}\ndemos: [1]\nseeds: 2\neval_episodes: 2\n"
+    body = f"envs: {{{PENDULUM}: {{budget: {{b}}}}}}\ndemos: [1]\nseeds: 1\neval_episodes: 2\n"
     priced = write_suite(
-        tmp_path, "priced", body.replace("{b}", "4096") + "algorithms: [random, survival]\n"
+        tmp_path, "priced", body.replace("{b}", "2048") + "algorithms: [random, survival]\n"
     )
     out = cli("run", str(priced), "--results", str(results / "priced"), "--jobs", "2")
     assert out.returncode == 0, out.stderr
     # At 10,000x the budget a survival trial is priced at hours; a reference costs its
     # evaluation at any budget.
     suite = write_suite(
-        tmp_path, "limited", body.replace("{b}", "40960000") + "algorithms: [random, survival]\n"
+        tmp_path, "limited", body.replace("{b}", "20480000") + "algorithms: [random, survival]\n"
     )
     run = ("run", str(suite), "--results", str(results / "limited"), "--jobs", "2")
     out = cli(*run, "--time-limit", "10m")
     assert out.returncode == 0, out.stderr
-    assert "2 trials done, 0 failed" in out.stdout and "2 trials not started" in out.stdout
+    assert "1 trials done, 0 failed" in out.stdout and "1 trials not started" in out.stdout
     assert {r.spec.algorithm for r in store.scan(results / "limited")} == {"random"}
     out = cli(*run, "--estimate")
-    assert "2 of 4 trials pending" in out.stdout
+    assert "1 of 2 trials pending" in out.stdout
 
 
 def test_time_left_is_the_expected_seconds_over_the_workers():
