@@ -69,7 +69,7 @@ def replay_transitions(batch: sac.ReplayBatch) -> Transitions:
         batch.raw("next_obs"),
         batch.obs_absorbing,
         batch.next_absorbing,
-        torch.ones(len(batch.obs)),
+        torch.ones(len(batch.obs), device=batch.obs.device),
     )
 
 
@@ -87,6 +87,18 @@ def expert_replay(
     return sac.ReplayBatch(*(torch.from_numpy(np.concatenate(x)) for x in zip(*rows, strict=True)))
 
 
+def sample_of(batch: sac.ReplayBatch, n: int, gen: torch.Generator) -> sac.ReplayBatch:
+    """n rows of `batch` drawn uniformly with replacement. The indices are drawn on the CPU
+    with `gen` whatever the batch's device, so a seed draws the same rows on any device."""
+    idx = torch.randint(len(batch.obs), (n,), generator=gen).to(batch.obs.device)
+    return sac.ReplayBatch(*(x[idx] for x in vars(batch).values()))
+
+
+def uniform(shape: tuple[int, ...], gen: torch.Generator, device: torch.device) -> torch.Tensor:
+    """U[0, 1) of `shape` drawn on the CPU with `gen` and moved to `device` (as `sample_of`)."""
+    return torch.rand(shape, generator=gen).to(device)
+
+
 def current_d_reward(
     disc: Discriminator,
     expert: sac.ReplayBatch,
@@ -101,15 +113,14 @@ def current_d_reward(
     reward = REWARDS[cfg.reward]
 
     def reward_fn(batch: sac.ReplayBatch) -> sac.Logged:
-        idx = torch.randint(len(expert.obs), (len(batch.obs),), generator=gen)
-        e_batch = sac.ReplayBatch(*(x[idx] for x in vars(expert).values()))
+        e_batch = sample_of(expert, len(batch.obs), gen)
         p = disc.inputs(replay_transitions(batch))
         e = disc.inputs(replay_transitions(e_batch))
         logit_p, logit_e = disc.net(p).squeeze(-1), disc.net(e).squeeze(-1)
         bce = F.binary_cross_entropy_with_logits(
             logit_p, torch.zeros_like(logit_p)
         ) + F.binary_cross_entropy_with_logits(logit_e, torch.ones_like(logit_e))
-        alpha = torch.rand(len(p), 1, generator=gen)
+        alpha = uniform((len(p), 1), gen, p.device)
         mix = (alpha * e + (1 - alpha) * p).detach().requires_grad_(True)
         grad = torch.autograd.grad(disc.net(mix).sum(), mix, create_graph=True)[0]
         penalty = grad.norm(dim=1).square().mean()
@@ -139,9 +150,11 @@ def train_offpolicy_adversarial(
     logger: Logger,
     cfg: OffPolicyAdversarialConfig,
 ) -> Policy:
-    expert = expert_replay(demos, expert_actions, task.act_dim, cfg.absorbing)
+    device = sac.usable_device(cfg.device)
+    expert = expert_replay(demos, expert_actions, task.act_dim, cfg.absorbing).to(device)
     norm = RunningNorm.of(np.concatenate(demos.observations))  # D's scale: the expert's, fixed
     disc = Discriminator(norm, features, task.obs_dim, task.act_dim, cfg.disc_hidden, True)
+    disc = disc.to(device)
     reward_fn = current_d_reward(disc, expert, cfg, seed)
     return train_on_reward(task, budget, seed, logger, cfg, reward_fn)
 

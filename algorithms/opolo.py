@@ -34,7 +34,14 @@ import torch
 import torch.nn.functional as F
 from torch import nn
 
-from algorithms.offpolicy import OffPolicyConfig, expert_replay, sac_budget, train_on_reward
+from algorithms.offpolicy import (
+    OffPolicyConfig,
+    expert_replay,
+    sac_budget,
+    sample_of,
+    train_on_reward,
+    uniform,
+)
 from bench.registry import Logger, Policy, Task, register
 from bench.rl import sac
 from bench.rl.networks import RunningNorm, mlp
@@ -122,15 +129,16 @@ class OPOLO:
     SAC's (`bench.rl.sac.train`), which calls `explore` and `update`."""
 
     def __init__(self, task: Task, demos: Demos, cfg: OPOLOConfig, seed: int) -> None:
-        torch.manual_seed(seed)
-        self.cfg = cfg
+        torch.manual_seed(seed)  # built on the CPU and then moved: the same weights anywhere
+        self.cfg, self.device = cfg, sac.usable_device(cfg.device)
         obs_dim, act_dim = task.obs_dim, task.act_dim
         low, high = task.action_low, task.action_high
         # A deterministic actor: SAC's network, read through its mean (`Actor.act`), so the
         # kept policy is the same kind of file.
         self.actor = sac.Actor(obs_dim, act_dim, cfg.hidden, low, high)
-        self.actor_target = copy.deepcopy(self.actor)
         self.critic = sac.TwinQ(obs_dim, act_dim, cfg.hidden)
+        self.actor, self.critic = self.actor.to(self.device), self.critic.to(self.device)
+        self.actor_target = copy.deepcopy(self.actor)
         self.critic_target = copy.deepcopy(self.critic)
         self.actor_opt = torch.optim.Adam(self.actor.parameters(), lr=cfg.lr, foreach=True)
         self.critic_opt = torch.optim.Adam(self.critic.parameters(), lr=cfg.lr, foreach=True)
@@ -140,11 +148,11 @@ class OPOLO:
         self.targets = [*self.actor_target.parameters(), *self.critic_target.parameters()]
         self.followed = [*self.actor.parameters(), *self.critic_params]
 
-        self.expert = expert_replay(demos, None, act_dim, absorbing=False)
+        self.expert = expert_replay(demos, None, act_dim, absorbing=False).to(self.device)
         # D's and M's scale: the expert's states, fixed
         norm = RunningNorm.of(np.concatenate(demos.observations))
-        self.disc = StateTransitionD(norm, obs_dim, cfg.disc_hidden)
-        self.inverse = InverseModel(norm, obs_dim, act_dim, cfg.disc_hidden)
+        self.disc = StateTransitionD(norm, obs_dim, cfg.disc_hidden).to(self.device)
+        self.inverse = InverseModel(norm, obs_dim, act_dim, cfg.disc_hidden).to(self.device)
         self.disc_opt = torch.optim.Adam(self.disc.net.parameters(), lr=cfg.disc_lr)
         self.inverse_opt = torch.optim.Adam(
             self.inverse.net.parameters(), lr=cfg.disc_lr, weight_decay=cfg.inverse_l2
@@ -157,7 +165,8 @@ class OPOLO:
 
     def explore(self, obs: torch.Tensor) -> torch.Tensor:
         action = self.actor.act(obs)
-        noise = torch.randn(action.shape, generator=self.gen) * self.cfg.exploration_noise
+        noise = torch.randn(action.shape, generator=self.gen).to(self.device)
+        noise = noise * self.cfg.exploration_noise
         low, high = self.actor.centre - self.actor.scale, self.actor.centre + self.actor.scale
         return torch.maximum(torch.minimum(action + noise * self.actor.scale, high), low)
 
@@ -168,14 +177,13 @@ class OPOLO:
         return -torch.log((1 - d).clamp(1e-4, 1.0))
 
     def _expert_batch(self, n: int) -> sac.ReplayBatch:
-        idx = torch.randint(len(self.expert.obs), (n,), generator=self.gen)
-        return sac.ReplayBatch(*(x[idx] for x in vars(self.expert).values()))
+        return sample_of(self.expert, n, self.gen)
 
     # ------------------------------------------------------------ D and M
 
     def train_disc(self) -> None:
         for _ in range(self.cfg.disc_steps):
-            agent = self.buffer.sample(self.cfg.batch_size)
+            agent = self.buffer.sample(self.cfg.batch_size, self.device)
             p = self.disc.inputs(agent)
             e = self.disc.inputs(self._expert_batch(len(p)))
             logit_p, logit_e = self.disc(p), self.disc(e)
@@ -187,7 +195,7 @@ class OPOLO:
                 torch.sigmoid(logits) * F.logsigmoid(logits)
                 + torch.sigmoid(-logits) * F.logsigmoid(-logits)
             ).mean()
-            mix_weight = torch.rand(len(p), 1, generator=self.gen)
+            mix_weight = uniform((len(p), 1), self.gen, self.device)
             mix = (mix_weight * e + (1 - mix_weight) * p).detach().requires_grad_(True)
             grad = torch.autograd.grad(self.disc(mix).sum(), mix, create_graph=True)[0]
             penalty = (grad.norm(dim=1) - 1).square().mean()
@@ -203,7 +211,7 @@ class OPOLO:
 
     def train_inverse(self, steps: int) -> None:
         for _ in range(steps):
-            batch = self.buffer.sample(self.cfg.batch_size)
+            batch = self.buffer.sample(self.cfg.batch_size, self.device)
             loss = F.mse_loss(self.inverse(batch), batch.actions)
             self.inverse_opt.zero_grad()
             loss.backward()

@@ -3,6 +3,7 @@
     python benchmarks/throughput.py [--steps 60000] [--envs InvertedPendulumBulletEnv-v0 HopperBulletEnv-v0]
     python benchmarks/throughput.py --pixels --steps 10000   # from 64x64 frames (`observation: pixels`)
     python benchmarks/throughput.py --envs HopperBulletEnv-v0 --steps 5000 --sac 128 256   # SAC beside
+    python benchmarks/throughput.py --envs HopperBulletEnv-v0 --steps 5000 --sac 256 --sac-device cpu cuda
     python benchmarks/throughput.py --library   # everything with pybullet's own stepping: the before
 
 Prints one row per env. `raw (library)` steps the env as pybullet_envs_gymnasium ships it,
@@ -89,12 +90,13 @@ def gaifo_steps_per_s(env_id: str, steps: int, pixels: PixelConfig | None = None
     return (n1 - n0) / (t1 - t0)
 
 
-def sac_steps_per_s(env_id: str, steps: int, hidden: tuple[int, ...]) -> float:
+def sac_steps_per_s(env_id: str, steps: int, hidden: tuple[int, ...], device: str = "cpu") -> float:
     """SAC on the env's reward, one update per env step (its default), timed after the random
-    warm-up: what the off-policy learners cost per env step once they learn."""
+    warm-up: what the off-policy learners cost per env step once they learn. `device`: where
+    its networks and updates run (the envs and the replay buffer stay on the CPU)."""
     from bench.rl import sac
 
-    cfg = sac.SACConfig(hidden=hidden, learning_starts=1000)
+    cfg = sac.SACConfig(hidden=hidden, learning_starts=1000, device=device)
     timings: list[tuple[int, float]] = []
     start = time.perf_counter()
     sac.train(
@@ -131,6 +133,13 @@ def main() -> None:
         " --steps then counts its learning steps",
     )
     parser.add_argument(
+        "--sac-device",
+        nargs="+",
+        default=["cpu"],
+        metavar="DEVICE",
+        help="where SAC's updates run, each in turn, e.g. --sac-device cpu cuda",
+    )
+    parser.add_argument(
         "--library",
         action="store_true",
         help="run everything with pybullet_envs_gymnasium's own stepping (bench.bullet_speed off)",
@@ -158,10 +167,12 @@ def main() -> None:
             flush=True,
         )
         for width in args.sac or []:
-            off = sac_steps_per_s(env_id, args.steps, (width, width))
-            print(
-                f"  SAC {width} x {width}: {off:,.0f} steps/s ({trpo / off:.1f}x TRPO's cost per step)"
-            )
+            for device in args.sac_device:
+                off = sac_steps_per_s(env_id, args.steps, (width, width), device)
+                print(
+                    f"  SAC {width} x {width} on {device}: {off:,.0f} steps/s"
+                    f" ({trpo / off:.1f}x TRPO's cost per step)"
+                )
 
 
 if __name__ == "__main__":

@@ -39,6 +39,10 @@ BAD_SUITES = {
     "wrong type": (GOOD.replace("budget: 2048", "budget: lots"), "budget"),
     "empty list": (GOOD.replace("demos: [1]", "demos: []"), "demos"),
     "yaml syntax": ("envs: [unclosed\n", "yaml"),
+    "unknown device": (
+        GOOD.replace("[random, expert]", "[random, expert, {gaifo-sac: {device: gpu}}]"),
+        "device must be cpu or cuda",
+    ),
     "a string for a list": (
         GOOD.replace("[random, expert]", "[random, expert, {gaifo: {hidden: abc}}]"),
         "hidden: expected a list",

@@ -151,3 +151,34 @@ def test_opolo_rewards_come_from_the_current_discriminator_and_its_dual_term_low
             return torch.min(*run.critic(b.obs, run.actor.act(b.obs))).mean().item()
 
     assert q_at_policy(10.0) < q_at_policy(0.0)
+
+
+@pytest.mark.parametrize("name", ["gaifo-sac", "opolo"])
+def test_device_setting_runs_the_learner_there_and_keeps_a_cpu_policy(name, pendulum):
+    """`device` moves the networks and updates; the kept policy is a CPU one either way. On a
+    machine without a GPU, asking for one fails at the trial's start, in one line."""
+    from bench import demos as demo_pool
+    from bench import envs
+    from bench.registry import Task
+    from bench.trial import demo_pool as pool_of
+
+    demos = demo_pool.load_demos(pool_of(pendulum, None), pendulum, 1, 0)
+    obs_dim, act_dim, low, high = envs.spaces(pendulum)
+    task = Task(pendulum, obs_dim, act_dim, low, high, lambda s: envs.make(pendulum, s))
+    algo = registry.get(name)
+    tiny = {**TINY, "learning_starts": 100}
+    if name == "opolo":
+        tiny.update(disc_hidden=[16, 16], inverse_pretrain=5, train_every=50)
+
+    class Quiet:
+        def checkpoint(self, env_steps, policy): ...
+
+        def log(self, env_steps, **scalars): ...
+
+    if not torch.cuda.is_available():
+        with pytest.raises(RuntimeError, match="torch sees no GPU"):
+            algo.train(task, demos, 200, 0, Quiet(), algo.config(**tiny, device="cuda"))
+        return
+    policy = algo.train(task, demos, 200, 0, Quiet(), algo.config(**tiny, device="cuda"))
+    assert all(t.device.type == "cpu" for t in policy.state()["weights"].values())
+    assert policy(np.zeros((3, obs_dim), np.float32)).shape == (3, act_dim)

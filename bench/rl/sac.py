@@ -31,6 +31,7 @@ import torch
 import torch.nn.functional as F
 from torch import nn
 
+from bench.registry import added_later
 from bench.rl.absorbing import FLAG
 from bench.rl.networks import mlp
 
@@ -57,9 +58,18 @@ class SACConfig:
     """Envs stepped side by side (one batched actor forward per step)."""
     absorbing: bool = True
     """Terminations lead into an absorbing state (DAC); off: they are masked."""
+    device: str = added_later("cpu")
+    """Where the networks and their updates run: "cpu", or "cuda" ("cuda:1") for a GPU. The
+    replay buffer and the envs stay in CPU memory; each minibatch goes over as it is sampled."""
 
     def __post_init__(self) -> None:
         self.hidden = tuple(self.hidden)
+        try:
+            kind = torch.device(self.device).type
+        except (RuntimeError, TypeError):
+            kind = None
+        if kind not in ("cpu", "cuda"):
+            raise ValueError(f"device must be cpu or cuda (cuda:N), not {self.device!r}")
         for name in ("batch_size", "buffer_size", "n_envs"):
             if getattr(self, name) < 1:
                 raise ValueError(f"{name} must be >= 1, not {getattr(self, name)}")
@@ -86,6 +96,9 @@ class ReplayBatch:
     """(B,) the env's reward; 0 into and on the absorbing loop after it."""
     not_done: torch.Tensor
     """(B,) 0 where a termination is masked (absorbing off), else 1."""
+
+    def to(self, device: torch.device | str) -> ReplayBatch:
+        return ReplayBatch(*(x.to(device) for x in vars(self).values()))
 
     @property
     def obs_absorbing(self) -> torch.Tensor:
@@ -120,10 +133,10 @@ class ReplayBuffer:
         self.cursor = int(rows[-1] + 1) % self.size
         self.count = min(self.count + len(obs), self.size)
 
-    def sample(self, n: int) -> ReplayBatch:
+    def sample(self, n: int, device: torch.device | str = "cpu") -> ReplayBatch:
         idx = self.rng.integers(self.count, size=n)
         fields = (self.obs, self.actions, self.next_obs, self.env_rewards, self.not_done)
-        return ReplayBatch(*(torch.from_numpy(x[idx]) for x in fields))
+        return ReplayBatch(*(torch.from_numpy(x[idx]).to(device) for x in fields))
 
 
 def flagged(obs: np.ndarray, absorbing: bool = False) -> np.ndarray:
@@ -217,7 +230,7 @@ class DeterministicActor:
     """numpy in, numpy out: what the runner evaluates (observations get their flag, 0)."""
 
     def __init__(self, actor: Actor) -> None:
-        self.actor = copy.deepcopy(actor).eval()
+        self.actor = copy.deepcopy(actor).to("cpu").eval()  # evaluated and saved on the CPU
 
     @torch.no_grad()
     def __call__(self, obs: np.ndarray) -> np.ndarray:
@@ -262,13 +275,13 @@ SACRewardFn = Callable[[ReplayBatch], "torch.Tensor | Logged"]
 
 class SAC:
     def __init__(self, obs_dim: int, act_dim: int, low, high, cfg: SACConfig, seed: int) -> None:
-        torch.manual_seed(seed)
-        self.cfg, self.act_dim = cfg, act_dim
-        self.actor = Actor(obs_dim, act_dim, cfg.hidden, low, high)
-        self.critic = TwinQ(obs_dim, act_dim, cfg.hidden)
-        self.target = TwinQ(obs_dim, act_dim, cfg.hidden)
+        torch.manual_seed(seed)  # built on the CPU and then moved: the same weights anywhere
+        self.cfg, self.act_dim, self.device = cfg, act_dim, usable_device(cfg.device)
+        self.actor = Actor(obs_dim, act_dim, cfg.hidden, low, high).to(self.device)
+        self.critic = TwinQ(obs_dim, act_dim, cfg.hidden).to(self.device)
+        self.target = TwinQ(obs_dim, act_dim, cfg.hidden).to(self.device)
         self.target.load_state_dict(self.critic.state_dict())
-        self.log_alpha = torch.zeros(1, requires_grad=True)
+        self.log_alpha = torch.zeros(1, device=self.device, requires_grad=True)
         self.target_entropy = -float(act_dim)
         # foreach: one batched kernel per Adam step instead of a loop over tensors; the same
         # numbers to the bit (checked with torch 2.13), ~5% less time per update on a CPU.
@@ -321,6 +334,14 @@ class SAC:
         }
 
 
+def usable_device(name: str) -> torch.device:
+    """torch.device(name), or a one-line error where it cannot run here (no GPU)."""
+    device = torch.device(name)
+    if device.type == "cuda" and not torch.cuda.is_available():
+        raise RuntimeError(f"device {name!r} asked for, but torch sees no GPU on this machine")
+    return device
+
+
 @torch.no_grad()
 def soft_update(targets: list[nn.Parameter], sources: list[nn.Parameter], tau: float) -> None:
     """Polyak averaging, targets <- targets + tau (sources - targets): every tensor in one
@@ -351,6 +372,7 @@ class OffPolicyLearner(Protocol):
 
     actor: Actor
     buffer: ReplayBuffer
+    device: torch.device
 
     def explore(self, obs: torch.Tensor) -> torch.Tensor: ...
 
@@ -395,7 +417,8 @@ def train(
                 actions = rng.uniform(low, high, size=(len(envs), len(low))).astype(np.float32)
             else:
                 with torch.no_grad():
-                    actions = learner.explore(torch.from_numpy(flagged(obs))).numpy()
+                    seen = torch.from_numpy(flagged(obs)).to(learner.device)
+                    actions = learner.explore(seen).cpu().numpy()
             before = obs.copy()
             next_obs = np.empty_like(obs)
             rewards = np.empty(len(envs), np.float32)
@@ -414,7 +437,7 @@ def train(
             if steps >= cfg.learning_starts:
                 owed += cfg.updates_per_step * len(envs)
                 while owed >= 1:
-                    batch = buffer.sample(cfg.batch_size)
+                    batch = buffer.sample(cfg.batch_size, learner.device)
                     rewards = reward(batch)
                     if isinstance(rewards, Logged):
                         info = {**rewards.logged, **learner.update(batch, rewards.rewards)}
