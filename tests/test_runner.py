@@ -158,7 +158,7 @@ def test_dispatch_runs_unseen_kinds_then_the_costliest_first():
 
 
 def test_a_time_limit_starts_the_dearest_trial_that_still_fits_and_then_stops():
-    specs = [TrialSpec("t", PENDULUM, "gaifo", 1, seed, 1000, 1) for seed in range(4)]
+    specs = [TrialSpec("t", PENDULUM, "survival", 1, seed, 1000, 1) for seed in range(4)]
     seconds = {s.trial_id: float(c) for s, c in zip(specs[:3], (50, 30, 20), strict=True)}
     seconds[specs[3].trial_id] = None  # nothing to go by: never fits
     now = [0.0]
@@ -173,25 +173,24 @@ def test_a_time_limit_starts_the_dearest_trial_that_still_fits_and_then_stops():
 
 
 def test_time_limit_leaves_the_trials_that_would_not_fit(tmp_path, cli):
+    # Prices come from the records beside the results folder: here, records that say a
+    # survival trial takes an hour per 2,048 steps and a random one two seconds.
     results = tmp_path / "results"
-    body = f"envs: {{{PENDULUM}: {{budget: {{b}}}}}}\ndemos: [1]\nseeds: 1\neval_episodes: 2\n"
-    priced = write_suite(
-        tmp_path, "priced", body.replace("{b}", "2048") + "algorithms: [random, survival]\n"
-    )
-    out = cli("run", str(priced), "--results", str(results / "priced"), "--jobs", "2")
-    assert out.returncode == 0, out.stderr
-    # At 10,000x the budget a survival trial is priced at hours; a reference costs its
-    # evaluation at any budget.
+    for algorithm, env_steps, seconds in (("survival", 2048, 3600.0), ("random", 0, 2.0)):
+        spec = TrialSpec("priced", PENDULUM, algorithm, 1, 0, 2048, 2)
+        store.write(results / "priced", TrialResult(spec, "ok", [1.0], [], env_steps, seconds, {}))
     suite = write_suite(
-        tmp_path, "limited", body.replace("{b}", "20480000") + "algorithms: [random, survival]\n"
+        tmp_path,
+        "limited",
+        f"envs: {{{PENDULUM}: {{budget: 2048}}}}\ndemos: [1]\nseeds: 1\neval_episodes: 2\n"
+        "algorithms: [random, survival]\n",
     )
     run = ("run", str(suite), "--results", str(results / "limited"), "--jobs", "2")
     out = cli(*run, "--time-limit", "10m")
     assert out.returncode == 0, out.stderr
     assert "1 trials done, 0 failed" in out.stdout and "1 trials not started" in out.stdout
     assert {r.spec.algorithm for r in store.scan(results / "limited")} == {"random"}
-    out = cli(*run, "--estimate")
-    assert "1 of 2 trials pending" in out.stdout
+    assert "1 of 2 trials pending" in cli(*run, "--estimate").stdout
 
 
 def test_time_left_is_the_expected_seconds_over_the_workers():
