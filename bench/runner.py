@@ -59,6 +59,8 @@ def _jobs(
     first = set(first)
 
     def order(spec: TrialSpec) -> tuple:
+        if limit is not None:  # every trial that fits is priced: the dearest first
+            return (bool({spec.algorithm, spec.shown} & first), limit.seconds[spec.trial_id])
         return (bool({spec.algorithm, spec.shown} & first), *costs.priority(spec))
 
     remaining = list(specs)

@@ -171,6 +171,13 @@ def test_a_time_limit_starts_the_dearest_trial_that_still_fits_and_then_stops():
     assert next(jobs)[1][0] == specs[2]
     assert next(jobs, None) is None  # 30 s and unpriced: neither fits, so the run ends
 
+    # Under a limit the prices order the trials: a kind this folder never timed does not jump
+    # the queue to learn its cost (it has one), and the dearest that fits still goes first.
+    reference = TrialSpec("t", PENDULUM, "random", 1, 0, 1000, 1)
+    limit = TimeLimit.starting_now(60.0, {**seconds, reference.trial_id: 1.0}, clock=lambda: 0.0)
+    order = [job[1][0] for job in _jobs([reference, *specs[:3]], CostModel(), limit=limit)]
+    assert order == [specs[0], specs[1], specs[2], reference]
+
 
 def test_time_limit_leaves_the_trials_that_would_not_fit(tmp_path, cli):
     # Prices come from the records beside the results folder: here, records that say a
