@@ -165,11 +165,18 @@ def suite_dirs(root: str | Path) -> list[Path]:
 
 
 def find_result_dirs(root: str | Path) -> list[Path]:
-    """Every folder under `root` (itself included) that holds a trials/ folder; experts/ skipped."""
+    """Every folder under `root` (itself included) that holds a trials/ folder; experts/ skipped.
+    Linked folders are followed (a suite's folder linked in from scratch space is still seen),
+    each real folder once, so a link loop ends."""
     if Path(root).name == "experts":
         return []
-    found = []
-    for folder, subdirs, _ in os.walk(root):
+    found, seen = [], set()
+    for folder, subdirs, _ in os.walk(root, followlinks=True):
+        real = os.path.realpath(folder)
+        if real in seen:
+            subdirs[:] = []
+            continue
+        seen.add(real)
         if TRIALS in subdirs:
             found.append(Path(folder))
         # Prune: never descend into expert folders, nor into trials/ (records only).

@@ -170,3 +170,14 @@ def test_find_result_dirs(tmp_path):
     ]
     assert store.find_result_dirs(tmp_path / "experts") == []
     assert store.find_result_dirs(tmp_path / "empty") == []
+
+
+def test_find_result_dirs_follows_linked_folders_once(tmp_path):
+    """A suite's folder linked in from elsewhere (scratch space) is found; a loop ends."""
+    elsewhere = tmp_path / "scratch" / "offpolicy"
+    (elsewhere / "trials").mkdir(parents=True)
+    results = tmp_path / "results"
+    (results / "quick" / "trials").mkdir(parents=True)
+    (results / "offpolicy").symlink_to(elsewhere, target_is_directory=True)
+    (results / "quick" / "loop").symlink_to(results, target_is_directory=True)
+    assert store.find_result_dirs(results) == [results / "offpolicy", results / "quick"]
