@@ -1,5 +1,5 @@
-"""What trials cost: the runner's dispatch order and `bench run --estimate`, learned from the
-wall times of finished records."""
+"""What trials cost, learned from the wall times of finished records: one price for the
+runner's dispatch order, its progress bar, `bench run --time-limit` and `--estimate`."""
 
 from __future__ import annotations
 
@@ -30,58 +30,73 @@ def cost_kind(spec: TrialSpec) -> tuple[str, str]:
 
 @dataclass
 class CostModel:
-    """Wall seconds per env step of each (env, algorithm), learned from finished trials.
+    """What a trial is expected to cost in wall seconds on one core, learned from finished
+    records. One price for everything that needs one: the runner's dispatch order (longest
+    first, so a run does not end with one long trial on one core while the others idle), the
+    progress bar's time left, `--time-limit` and `--estimate`.
 
-    It orders dispatch longest-first, so that the run does not end with one
-    long trial on one core while the others idle. Budget alone is a poor
-    guide: at the same budget a BCO trial takes 3x a GAIfO one, and the
-    references (random, expert) take almost nothing.
+    A record predicts a like trial's cost in proportion to budget (`_seconds_at`); a kind with
+    no record on this env goes by the slowest env measured for its algorithm, seen the same way
+    (rough: envs step at different speeds; a state trial never goes by a pixel one's). Budget
+    alone is a poor guide: at the same budget a BCO trial takes 3x a GAIfO one, and the
+    references (random, expert) take almost nothing. Records made while the machine was busy
+    make a price high.
     """
 
-    totals: dict[tuple[str, str], tuple[float, int]] = field(default_factory=dict)
-    """(sum of seconds per env step, trials) by (env, algorithm)."""
+    done: dict[tuple[str | None, str, str], list[TrialResult]] = field(default_factory=dict)
+    """Finished records by (how the env is seen, env, algorithm)."""
     lock: threading.Lock = field(default_factory=threading.Lock)  # joblib dispatches from a thread
 
-    def observe(self, spec: TrialSpec, wall_time: float) -> None:
-        key = cost_kind(spec)
+    @classmethod
+    def of(cls, records: Iterable[TrialResult]) -> CostModel:
+        costs = cls()
+        for record in records:
+            costs.observe(record)
+        return costs
+
+    def observe(self, record: TrialResult) -> None:
+        """Learn from a finished record (failed ones and zero budgets say nothing)."""
+        if record.status == "ok" and record.spec.budget > 0:
+            key = (observed(record.spec), record.spec.env_id, record.spec.algorithm)
+            with self.lock:
+                self.done.setdefault(key, []).append(record)
+
+    def price(self, spec: TrialSpec) -> tuple[float | None, str]:
+        """Expected wall seconds of `spec` (None: nothing to go by), and what that rests on."""
+        seen = observed(spec)
         with self.lock:
-            total, n = self.totals.get(key, (0.0, 0))
-            self.totals[key] = (total + wall_time / max(spec.budget, 1), n + 1)
+            by_env = {  # this env's, if measured, and every other env's seen the same way
+                env: float(np.mean([_seconds_at(r, spec.budget) for r in records]))
+                for (o, env, algorithm), records in self.done.items()
+                if o == seen and algorithm == spec.algorithm
+            }
+            here = len(self.done.get((seen, spec.env_id, spec.algorithm), []))
+        if spec.env_id in by_env:
+            return by_env[spec.env_id], f"mean of {here} trials"
+        if by_env:
+            slowest = max(by_env, key=by_env.get)
+            shown = slowest if seen is None else f"{slowest} ({seen})"
+            return by_env[slowest], f"rough: as on {shown}, the slowest measured"
+        return None, f"no finished {spec.algorithm} trial"
 
     def seconds(self, spec: TrialSpec) -> float | None:
-        """Expected wall seconds of `spec` (None: its kind never timed)."""
-        with self.lock:
-            seen = self.totals.get(cost_kind(spec))
-        if seen is None:
-            return None
-        total, n = seen
-        return total / n * spec.budget
+        """Expected wall seconds of `spec` (None: nothing to go by)."""
+        return self.price(spec)[0]
 
     def priority(self, spec: TrialSpec) -> tuple[int, float]:
-        """Higher runs sooner: never-seen kinds first (by budget), then by expected seconds."""
+        """Higher runs sooner: unpriced kinds first (by budget, to learn their cost), then by
+        expected seconds."""
         seconds = self.seconds(spec)
         return (1, float(spec.budget)) if seconds is None else (0, seconds)
 
     def time_left(self, specs: Iterable[TrialSpec], workers: int) -> str:
         """What `specs` should take on `workers` cores, for a progress bar: "~2.5 h", with
-        "+N unpriced" for trials of kinds never timed."""
+        "+N unpriced" for trials with nothing to go by."""
         expected = [self.seconds(spec) for spec in specs]
         hours = sum(s for s in expected if s is not None) / 3600 / max(workers, 1)
         text = f"~{hours:.1f} h" if hours >= 1 else f"~{hours * 60:.0f} min"
         unpriced = sum(s is None for s in expected)
         return text + (f" +{unpriced} unpriced" if unpriced else "")
-
-
-@dataclass(frozen=True)
-class Estimate:
-    env_id: str
-    """The env id, with its observation in parentheses where it is not states."""
-    algorithm: str
-    trials: int
-    seconds: float | None
-    """Expected wall seconds of one trial on one core (None: nothing to go by)."""
-    basis: str
-    """What the estimate rests on."""
 
 
 def _seconds_at(record: TrialResult, budget: float) -> float:
@@ -91,76 +106,47 @@ def _seconds_at(record: TrialResult, budget: float) -> float:
     return record.wall_time * budget / record.spec.budget if record.env_steps else record.wall_time
 
 
+@dataclass(frozen=True)
+class Estimate:
+    """`bench run --estimate`'s row: one (env, algorithm) of the pending trials."""
+
+    env_id: str
+    algorithm: str
+    trials: int
+    seconds: float | None
+    """Expected wall seconds of one trial on one core (None: nothing to go by)."""
+    basis: str
+    """What the estimate rests on."""
+
+
 def estimate(specs: list[TrialSpec], records: Iterable[TrialResult]) -> list[Estimate]:
-    """Expected cost of `specs` per (env, algorithm), from the seconds per env step that
-    finished `records` took: their mean on the same env if any, else the slowest measured
-    env's seen the same way (rough: envs step at different speeds; a state trial never goes by
-    a pixel one's). Records made while the machine was busy make an estimate high."""
-    # Keyed by how the env is seen as well: a state trial only goes by state trials.
-    done: dict[tuple[str | None, str, str], list[TrialResult]] = {}
-    for r in records:
-        if r.status == "ok" and r.spec.budget > 0:
-            done.setdefault((observed(r.spec), *cost_kind(r.spec)), []).append(r)
+    """Expected cost of `specs` per (env, algorithm) as `CostModel` prices them from `records`:
+    one trial's mean price, and its basis."""
+    costs = CostModel.of(records)
     groups: dict[tuple[str, str], list[TrialSpec]] = {}
     for spec in specs:
         groups.setdefault(cost_kind(spec), []).append(spec)
     out = []
     for (env_id, algorithm), group in groups.items():
-        budget = sum(s.budget for s in group) / len(group)
-        seen = observed(group[0])
-        by_env = {  # this env's, if measured, and every other env's seen the same way
-            e: float(np.mean([_seconds_at(r, budget) for r in rs]))
-            for (o, e, a), rs in done.items()
-            if o == seen and a == algorithm
-        }
-        if env_id in by_env:
-            seconds = by_env[env_id]
-            basis = f"mean of {len(done[seen, env_id, algorithm])} trials"
-        elif by_env:
-            slowest = max(by_env, key=by_env.get)
-            seconds = by_env[slowest]
-            basis = f"rough: as on {slowest}, the slowest measured"
-        else:
-            seconds, basis = None, f"no finished {algorithm} trial"
-        out.append(Estimate(env_id, algorithm, len(group), seconds, basis))
-    return out
-
-
-def seconds_each(specs: list[TrialSpec], records: Iterable[TrialResult]) -> dict[str, float | None]:
-    """Each trial's expected wall seconds on one core, by trial id, as `estimate` prices its
-    kind at its own budget (None: nothing to go by)."""
-    records = list(records)
-    groups: dict[tuple, list[TrialSpec]] = {}
-    for spec in specs:
-        groups.setdefault((*cost_kind(spec), spec.budget), []).append(spec)
-    out: dict[str, float | None] = {}
-    for group in groups.values():
-        (row,) = estimate(group, records)
-        out.update({spec.trial_id: row.seconds for spec in group})
+        prices = [costs.price(spec) for spec in group]
+        seconds = None if prices[0][0] is None else float(np.mean([p for p, _ in prices]))
+        out.append(Estimate(env_id, algorithm, len(group), seconds, prices[0][1]))
     return out
 
 
 @dataclass(frozen=True)
 class TimeLimit:
-    """A wall-clock end for a run: a trial starts only if its expected seconds (`seconds_each`)
-    fit in what is left, so none is cut off, and a run on a cluster's wall-clock allowance or
-    in a session that ends loses no work. A trial with nothing to go by never fits."""
+    """A wall-clock end for a run: a trial starts only if its expected seconds fit in what is
+    left, so none is cut off, and a run on a cluster's wall-clock allowance or in a session that
+    ends loses no work. A trial with nothing to go by never fits."""
 
     deadline: float
     """On `clock`'s scale."""
-    seconds: dict[str, float | None]
-    """Expected seconds by trial id."""
     clock: Callable[[], float] = time.monotonic
 
     @classmethod
-    def starting_now(
-        cls,
-        limit: float,
-        seconds: dict[str, float | None],
-        clock: Callable[[], float] = time.monotonic,
-    ) -> TimeLimit:
-        return cls(clock() + limit, seconds, clock)
+    def starting_now(cls, limit: float, clock: Callable[[], float] = time.monotonic) -> TimeLimit:
+        return cls(clock() + limit, clock)
 
-    def fits(self, spec: TrialSpec) -> bool:
-        expected = self.seconds.get(spec.trial_id)
+    def fits(self, expected: float | None) -> bool:
         return expected is not None and self.clock() + expected <= self.deadline

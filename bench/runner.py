@@ -52,20 +52,22 @@ def _jobs(
     limit: TimeLimit | None = None,
 ) -> Iterator:
     """The trials as joblib calls: those of the algorithms `first` (names or labels) before the
-    others; within each group, kinds never timed first (to learn their cost), then the
-    dearest, so the last to finish are short. Under a time `limit`, only those that still fit
-    as each starts: the dearest that fits, and none once none does."""
+    others; within each group, kinds with nothing to go by first (to learn their cost), then
+    the dearest, so the last to finish are short. Under a time `limit`, only those that still
+    fit as each starts (so never an unpriced one): the dearest that fits, and none once none
+    does."""
 
     first = set(first)
 
     def order(spec: TrialSpec) -> tuple:
-        if limit is not None:  # every trial that fits is priced: the dearest first
-            return (bool({spec.algorithm, spec.shown} & first), limit.seconds[spec.trial_id])
         return (bool({spec.algorithm, spec.shown} & first), *costs.priority(spec))
 
     remaining = list(specs)
     while remaining:  # a generator: the next trial is chosen (and loaded) as a worker frees up
-        fitting = remaining if limit is None else [s for s in remaining if limit.fits(s)]
+        if limit is None:
+            fitting = remaining
+        else:
+            fitting = [s for s in remaining if limit.fits(costs.seconds(s))]
         if not fitting:
             return
         spec = max(fitting, key=order)  # first of equals: suite order
@@ -84,20 +86,21 @@ def run_suite(
     tensorboard: str | Path | None = None,
     first: Collection[str] = (),
     limit: TimeLimit | None = None,
+    costs: CostModel | None = None,
 ) -> RunSummary:
     """Run every pending trial in parallel, writing each record as it finishes; with
     `tensorboard`, each trial's scalars go there live as TensorBoard events. The trials of
-    the algorithms `first` (names or labels) start before the others'. Under a time `limit`,
-    a trial starts only if it is expected to finish in time; the rest are left pending."""
+    the algorithms `first` (names or labels) start before the others'. Trials are priced by
+    `costs` (default: learned from `results_dir`'s records), which learns from each trial as
+    it finishes; under a time `limit`, a trial starts only if it is expected to finish in
+    time, and the rest are left pending."""
     records = list(store.scan(results_dir))
     todo = pending(specs, {r.trial_id: r.status for r in records}, retry_failed)
     skipped = len(specs) - len(todo)
     if not todo:
         return RunSummary(0, 0, skipped)
-    costs = CostModel()
-    for r in records:  # what earlier runs into this folder measured
-        if r.status == "ok":
-            costs.observe(r.spec, r.wall_time)
+    if costs is None:
+        costs = CostModel.of(records)
     plans = [plan(s) for s in todo]
     sources = {
         (p.spec.env_id, p.spec.dataset or "", p.filmed)
@@ -136,8 +139,8 @@ def run_suite(
                 if result.policy is not None:  # before the record: a record implies its policy
                     policies.write(results_dir, result.trial_id, result.policy)
                 store.write(results_dir, result)
+                costs.observe(result)
                 if result.status == "ok":
-                    costs.observe(result.spec, result.wall_time)
                     done += 1
                 else:
                     failed += 1

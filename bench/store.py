@@ -165,8 +165,8 @@ def suite_dirs(root: str | Path) -> list[Path]:
 
 
 def find_result_dirs(root: str | Path) -> list[Path]:
-    """Every folder under `root` (itself included) that holds a trials/ folder; experts/ skipped.
-    Linked folders are followed (a suite's folder linked in from scratch space is still seen),
+    """Every folder under `root` (itself included) that holds a trials/ folder; experts/ and
+    hidden folders skipped. Linked folders are followed (a suite's folder linked in from scratch space is still seen),
     each real folder once, so a link loop ends."""
     if Path(root).name == "experts":
         return []
@@ -179,8 +179,11 @@ def find_result_dirs(root: str | Path) -> list[Path]:
         seen.add(real)
         if TRIALS in subdirs:
             found.append(Path(folder))
-        # Prune: never descend into expert folders, nor into trials/ (records only).
-        subdirs[:] = sorted(d for d in subdirs if d not in ("experts", TRIALS))
+        # Prune: never descend into expert folders, trials/ (records only) or hidden folders
+        # (.venv, .git: a run with `--results NAME` prices by every record under `.`).
+        subdirs[:] = sorted(
+            d for d in subdirs if d not in ("experts", TRIALS) and not d.startswith(".")
+        )
     return sorted(found)
 
 

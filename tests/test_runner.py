@@ -127,30 +127,34 @@ def test_failing_trial_is_recorded_and_retried(tmp_path, cli, install_plugin):
     assert "0 trials done, 1 failed, 1 already finished" in out.stdout
 
 
+def finished(spec: TrialSpec, seconds: float) -> TrialResult:
+    """A record of `spec` that trained its whole budget in `seconds`."""
+    return TrialResult(spec, "ok", [1.0], [], spec.budget, seconds, {})
+
+
 def test_dispatch_runs_unseen_kinds_then_the_costliest_first():
     def spec(env: str, algorithm: str, seed: int, budget: int = 1000) -> TrialSpec:
         return TrialSpec("t", env, algorithm, 0, seed, budget, 1)
 
     cheap, dear = spec(PENDULUM, "random", 1), spec(PENDULUM, "survival", 1)
-    unseen = spec("HopperBulletEnv-v0", "random", 0, budget=10)
-    costs = CostModel()
-    costs.observe(spec(PENDULUM, "random", 0), 0.1)  # 0.1 s per 1000 steps
-    costs.observe(spec(PENDULUM, "survival", 0), 10.0)
-    jobs = _jobs([cheap, dear, unseen], costs)
+    unseen = spec(PENDULUM, "expert", 0, budget=10)
+    timed = [
+        finished(spec(PENDULUM, "random", 0), 0.1),
+        finished(spec(PENDULUM, "survival", 0), 10.0),
+    ]
+    jobs = _jobs([cheap, dear, unseen], CostModel.of(timed))
     assert next(jobs)[1][0] == unseen  # its cost is unknown: learn it early
     assert next(jobs)[1][0] == dear  # then the costliest; the cheap one fills the tail
 
-    costs = CostModel()
-    costs.observe(spec(PENDULUM, "random", 0), 0.1)
-    costs.observe(spec(PENDULUM, "survival", 0), 10.0)
+    costs = CostModel.of(timed)
     jobs = _jobs([cheap, dear, spec(PENDULUM, "survival", 2)], costs)
     assert next(jobs)[1][0] == dear
-    costs.observe(spec(PENDULUM, "random", 2), 100.0)  # a slow one finished meanwhile
+    costs.observe(finished(spec(PENDULUM, "random", 2), 100.0))  # a slow one finished meanwhile
     assert next(jobs)[1][0] == cheap  # the order follows what was learned
 
     # The suite's `runner.first` algorithms go before every other, dearest first among them.
     oracle = [spec(PENDULUM, "oracle", s, budget=b) for s, b in ((0, 100), (1, 200))]
-    costs.observe(spec(PENDULUM, "oracle", 9), 0.01)  # known to be the cheapest
+    costs.observe(finished(spec(PENDULUM, "oracle", 9), 0.01))  # known to be the cheapest
     assert [job[1][0] for job in _jobs([dear, *oracle], costs)][0] == dear
     jobs = _jobs([dear, unseen, *oracle, cheap], costs, first={"oracle"})
     order = [job[1][0] for job in jobs]
@@ -158,25 +162,28 @@ def test_dispatch_runs_unseen_kinds_then_the_costliest_first():
 
 
 def test_a_time_limit_starts_the_dearest_trial_that_still_fits_and_then_stops():
-    specs = [TrialSpec("t", PENDULUM, "survival", 1, seed, 1000, 1) for seed in range(4)]
-    seconds = {s.trial_id: float(c) for s, c in zip(specs[:3], (50, 30, 20), strict=True)}
-    seconds[specs[3].trial_id] = None  # nothing to go by: never fits
+    # Survival at 0.01 s per step: 50, 30 and 20 s; gaifo never timed.
+    specs = [
+        TrialSpec("t", PENDULUM, "survival", 1, seed, budget, 1)
+        for seed, budget in enumerate((5000, 3000, 2000))
+    ]
+    unpriced = TrialSpec("t", PENDULUM, "gaifo", 1, 0, 1000, 1)
+    costs = CostModel.of([finished(TrialSpec("t", PENDULUM, "survival", 1, 9, 1000, 1), 10.0)])
     now = [0.0]
-    limit = TimeLimit.starting_now(60.0, seconds, clock=lambda: now[0])
-    costs = CostModel()
-    costs.observe(specs[0], 1.0)
-    jobs = _jobs(specs, costs, limit=limit)
+    limit = TimeLimit.starting_now(60.0, clock=lambda: now[0])
+    jobs = _jobs([*specs, unpriced], costs, limit=limit)
     assert next(jobs)[1][0] == specs[0]  # 50 s of 60 fits
     now[0] = 35.0  # 25 s left: the 30-s trial no longer fits, the 20-s one does
     assert next(jobs)[1][0] == specs[2]
     assert next(jobs, None) is None  # 30 s and unpriced: neither fits, so the run ends
 
-    # Under a limit the prices order the trials: a kind this folder never timed does not jump
-    # the queue to learn its cost (it has one), and the dearest that fits still goes first.
+    # The dearest that fits goes first, whatever the suite's order; a reference costs its
+    # evaluation (1 s here) at any budget.
     reference = TrialSpec("t", PENDULUM, "random", 1, 0, 1000, 1)
-    limit = TimeLimit.starting_now(60.0, {**seconds, reference.trial_id: 1.0}, clock=lambda: 0.0)
-    order = [job[1][0] for job in _jobs([reference, *specs[:3]], CostModel(), limit=limit)]
-    assert order == [specs[0], specs[1], specs[2], reference]
+    costs.observe(TrialResult(reference, "ok", [1.0], [], 0, 1.0, {}))
+    limit = TimeLimit.starting_now(60.0, clock=lambda: 0.0)
+    order = [job[1][0] for job in _jobs([reference, *specs[::-1]], costs, limit=limit)]
+    assert order == [*specs, reference]
 
 
 def test_time_limit_leaves_the_trials_that_would_not_fit(tmp_path, cli):
@@ -197,6 +204,9 @@ def test_time_limit_leaves_the_trials_that_would_not_fit(tmp_path, cli):
     assert out.returncode == 0, out.stderr
     assert "1 trials done, 0 failed" in out.stdout and "1 trials not started" in out.stdout
     assert {r.spec.algorithm for r in store.scan(results / "limited")} == {"random"}
+    # The progress bar prices by the same records: the hour-long trial left over 2 workers,
+    # none unpriced.
+    assert "left=~30 min]" in out.stderr.replace("\r", "\n").splitlines()[-1]
     assert "1 of 2 trials pending" in cli(*run, "--estimate").stdout
 
 
@@ -204,8 +214,7 @@ def test_time_left_is_the_expected_seconds_over_the_workers():
     def spec(algorithm: str, seed: int, budget: int = 1000) -> TrialSpec:
         return TrialSpec("t", PENDULUM, algorithm, 0, seed, budget, 1)
 
-    costs = CostModel()
-    costs.observe(spec("gaifo", 0), 1800.0)  # half an hour per 1,000 steps
+    costs = CostModel.of([finished(spec("gaifo", 0), 1800.0)])  # half an hour per 1,000 steps
     todo = [spec("gaifo", 1), spec("gaifo", 2, budget=2000), spec("bco", 1)]
     assert costs.time_left(todo[:2], workers=1) == "~1.5 h"
     assert costs.time_left(todo, workers=2) == "~45 min +1 unpriced"

@@ -160,7 +160,14 @@ def test_load_logs_is_long(tmp_path):
 
 
 def test_find_result_dirs(tmp_path):
-    for sub in ["trials", "quick/trials", "quick/old/trials", "experts/Hopper/trials", "empty"]:
+    for sub in [
+        "trials",
+        "quick/trials",
+        "quick/old/trials",
+        "experts/Hopper/trials",
+        "empty",
+        ".venv/x/trials",
+    ]:
         (tmp_path / sub).mkdir(parents=True)
     (tmp_path / "quick" / "trials" / "nested" / "trials").mkdir(parents=True)  # not a suite
     assert store.find_result_dirs(tmp_path) == [

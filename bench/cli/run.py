@@ -12,6 +12,7 @@ from bench.cli.args import duration, folder, jobs_count
 
 def _run(args: argparse.Namespace) -> int:
     from bench import store
+    from bench.costs import CostModel, TimeLimit
     from bench.runner import run_suite
     from bench.suite import expand, load_suite, select
 
@@ -31,13 +32,9 @@ def _run(args: argparse.Namespace) -> int:
 
             copied = reuse(specs, results, args.reuse)
             print(f"{copied} finished trials copied from {', '.join(args.reuse)}", file=sys.stderr)
-        limit = None
-        if args.time_limit is not None:  # priced as --estimate prices them, from now on
-            from bench.costs import TimeLimit, seconds_each
-
-            limit = TimeLimit.starting_now(
-                args.time_limit, seconds_each(specs, _priced_by(results))
-            )
+        # Priced as --estimate prices them; a time limit counts from now on.
+        costs = CostModel.of(_priced_by(results))
+        limit = None if args.time_limit is None else TimeLimit.starting_now(args.time_limit)
         summary = run_suite(
             specs,
             results,
@@ -48,6 +45,7 @@ def _run(args: argparse.Namespace) -> int:
             tensorboard=args.tensorboard,
             first=suite.runner.first,
             limit=limit,
+            costs=costs,
         )
     print(
         f"{summary.done} trials done, {summary.failed} failed, "
