@@ -11,7 +11,7 @@ from bench.runner import run_suite
 from bench.suite import expand, load_suite
 
 PENDULUM = "InvertedPendulumBulletEnv-v0"
-SEEDS = [0, 1, 2, 3, 4, 5]
+SEEDS = [0, 1, 2, 3]
 
 
 pytestmark = pytest.mark.usefixtures("demo_cache")
@@ -41,8 +41,8 @@ def test_adversarial_learners_imitate_inverted_pendulum_from_one_demonstration(t
     shown = runs[["seed", "return", "normalized"]]
     # Measured with this setting, 1 demo: seeds 0-29 all >= 0.95 for both on two machines (all
     # 1.00 on the second, and seeds 0-9 at 5, 10 and 25 demos too). Another CPU may still move a
-    # seed across, so one of six may miss 0.95; a second, or a median below 0.95, means it
-    # broke. This test passes on seeds 0-5 and on the disjoint 10-15.
+    # seed across, so one of four may miss 0.95; a second, or a median below 0.95, means it
+    # broke. This test passes on seeds 0-3 and on the disjoint 10-13.
     assert runs.normalized.median() >= 0.95, shown
     assert (runs.normalized >= 0.95).sum() >= len(SEEDS) - 1, shown
     assert (runs.env_steps <= 100_000).all()
