@@ -7,6 +7,7 @@ import threading
 import time
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
+from typing import NamedTuple
 
 import numpy as np
 
@@ -28,6 +29,20 @@ def cost_kind(spec: TrialSpec) -> tuple[str, str]:
     return (spec.env_id if seen is None else f"{spec.env_id} ({seen})"), spec.algorithm
 
 
+class Timing(NamedTuple):
+    """What a finished trial says about the cost of like trials."""
+
+    wall_time: float
+    budget: int
+    trained: bool
+    """Whether it trained on env steps; the references (random, expert) do not."""
+
+    def seconds_at(self, budget: float) -> float:
+        """What a like trial of `budget` env steps takes: training time scales with the budget,
+        but a trial that trained on no env step costs its evaluation alone, at any budget."""
+        return self.wall_time * budget / self.budget if self.trained else self.wall_time
+
+
 @dataclass
 class CostModel:
     """What a trial is expected to cost in wall seconds on one core, learned from finished
@@ -35,7 +50,7 @@ class CostModel:
     first, so a run does not end with one long trial on one core while the others idle), the
     progress bar's time left, `--time-limit` and `--estimate`.
 
-    A record predicts a like trial's cost in proportion to budget (`_seconds_at`); a kind with
+    A record predicts a like trial's cost in proportion to budget (`Timing`); a kind with
     no record on this env goes by the slowest env measured for its algorithm, seen the same way
     (rough: envs step at different speeds; a state trial never goes by a pixel one's). Budget
     alone is a poor guide: at the same budget a BCO trial takes 3x a GAIfO one, and the
@@ -43,8 +58,8 @@ class CostModel:
     make a price high.
     """
 
-    done: dict[tuple[str | None, str, str], list[TrialResult]] = field(default_factory=dict)
-    """Finished records by (how the env is seen, env, algorithm)."""
+    done: dict[tuple[str | None, str, str], list[Timing]] = field(default_factory=dict)
+    """Finished trials' timings by (how the env is seen, env, algorithm)."""
     lock: threading.Lock = field(default_factory=threading.Lock)  # joblib dispatches from a thread
 
     @classmethod
@@ -57,17 +72,20 @@ class CostModel:
     def observe(self, record: TrialResult) -> None:
         """Learn from a finished record (failed ones and zero budgets say nothing)."""
         if record.status == "ok" and record.spec.budget > 0:
-            key = (observed(record.spec), record.spec.env_id, record.spec.algorithm)
+            spec = record.spec
+            timing = Timing(record.wall_time, spec.budget, trained=record.env_steps > 0)
             with self.lock:
-                self.done.setdefault(key, []).append(record)
+                self.done.setdefault((observed(spec), spec.env_id, spec.algorithm), []).append(
+                    timing
+                )
 
     def price(self, spec: TrialSpec) -> tuple[float | None, str]:
         """Expected wall seconds of `spec` (None: nothing to go by), and what that rests on."""
         seen = observed(spec)
         with self.lock:
             by_env = {  # this env's, if measured, and every other env's seen the same way
-                env: float(np.mean([_seconds_at(r, spec.budget) for r in records]))
-                for (o, env, algorithm), records in self.done.items()
+                env: float(np.mean([t.seconds_at(spec.budget) for t in timings]))
+                for (o, env, algorithm), timings in self.done.items()
                 if o == seen and algorithm == spec.algorithm
             }
             here = len(self.done.get((seen, spec.env_id, spec.algorithm), []))
@@ -97,13 +115,6 @@ class CostModel:
         text = f"~{hours:.1f} h" if hours >= 1 else f"~{hours * 60:.0f} min"
         unpriced = sum(s is None for s in expected)
         return text + (f" +{unpriced} unpriced" if unpriced else "")
-
-
-def _seconds_at(record: TrialResult, budget: float) -> float:
-    """What `record` predicts a like trial of `budget` env steps takes: training time scales
-    with the budget, but a trial that trained on no env step (the references: random, expert)
-    costs its evaluation alone, at any budget."""
-    return record.wall_time * budget / record.spec.budget if record.env_steps else record.wall_time
 
 
 @dataclass(frozen=True)
