@@ -122,6 +122,7 @@ class Estimate:
     """`bench run --estimate`'s row: one (env, algorithm) of the pending trials."""
 
     env_id: str
+    """The env id, with its observation in parentheses where it is not states."""
     algorithm: str
     trials: int
     seconds: float | None

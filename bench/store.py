@@ -166,8 +166,8 @@ def suite_dirs(root: str | Path) -> list[Path]:
 
 def find_result_dirs(root: str | Path) -> list[Path]:
     """Every folder under `root` (itself included) that holds a trials/ folder; experts/ and
-    hidden folders skipped. Linked folders are followed (a suite's folder linked in from scratch space is still seen),
-    each real folder once, so a link loop ends."""
+    hidden folders skipped. Linked folders are followed (a suite's folder linked in from
+    scratch space is still seen), each real folder once, so a link loop ends."""
     if Path(root).name == "experts":
         return []
     found, seen = [], set()
