@@ -7,7 +7,6 @@ import threading
 import time
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
-from typing import NamedTuple
 
 import numpy as np
 
@@ -29,18 +28,28 @@ def cost_kind(spec: TrialSpec) -> tuple[str, str]:
     return (spec.env_id if seen is None else f"{spec.env_id} ({seen})"), spec.algorithm
 
 
-class Timing(NamedTuple):
-    """What a finished trial says about the cost of like trials."""
+@dataclass
+class Tally:
+    """What the finished trials of one kind say about the cost of a like trial, as running
+    sums, so pricing stays constant time however many records there are."""
 
-    wall_time: float
-    budget: int
-    trained: bool
-    """Whether it trained on env steps; the references (random, expert) do not."""
+    trials: int = 0
+    seconds_per_step: float = 0.0
+    """Summed over the trials that trained: wall seconds over budget."""
+    fixed_seconds: float = 0.0
+    """Summed over the trials that trained on no env step (the references, random and
+    expert): they cost their evaluation alone, at any budget."""
 
-    def seconds_at(self, budget: float) -> float:
-        """What a like trial of `budget` env steps takes: training time scales with the budget,
-        but a trial that trained on no env step costs its evaluation alone, at any budget."""
-        return self.wall_time * budget / self.budget if self.trained else self.wall_time
+    def add(self, wall_time: float, budget: int, trained: bool) -> None:
+        self.trials += 1
+        if trained:  # training time scales with the budget
+            self.seconds_per_step += wall_time / budget
+        else:
+            self.fixed_seconds += wall_time
+
+    def mean_at(self, budget: float) -> float:
+        """The mean over these trials of what each says a like trial of `budget` steps takes."""
+        return (self.seconds_per_step * budget + self.fixed_seconds) / self.trials
 
 
 @dataclass
@@ -50,7 +59,7 @@ class CostModel:
     first, so a run does not end with one long trial on one core while the others idle), the
     progress bar's time left, `--time-limit` and `--estimate`.
 
-    A record predicts a like trial's cost in proportion to budget (`Timing`); a kind with
+    A record predicts a like trial's cost in proportion to budget (`Tally`); a kind with
     no record on this env goes by the slowest env measured for its algorithm, seen the same way
     (rough: envs step at different speeds; a state trial never goes by a pixel one's). Budget
     alone is a poor guide: at the same budget a BCO trial takes 3x a GAIfO one, and the
@@ -58,7 +67,7 @@ class CostModel:
     make a price high.
     """
 
-    done: dict[tuple[str | None, str, str], list[Timing]] = field(default_factory=dict)
+    done: dict[tuple[str | None, str, str], Tally] = field(default_factory=dict)
     """Finished trials' timings by (how the env is seen, env, algorithm)."""
     lock: threading.Lock = field(default_factory=threading.Lock)  # joblib dispatches from a thread
 
@@ -73,22 +82,20 @@ class CostModel:
         """Learn from a finished record (failed ones and zero budgets say nothing)."""
         if record.status == "ok" and record.spec.budget > 0:
             spec = record.spec
-            timing = Timing(record.wall_time, spec.budget, trained=record.env_steps > 0)
             with self.lock:
-                self.done.setdefault((observed(spec), spec.env_id, spec.algorithm), []).append(
-                    timing
-                )
+                tally = self.done.setdefault((observed(spec), spec.env_id, spec.algorithm), Tally())
+                tally.add(record.wall_time, spec.budget, trained=record.env_steps > 0)
 
     def price(self, spec: TrialSpec) -> tuple[float | None, str]:
         """Expected wall seconds of `spec` (None: nothing to go by), and what that rests on."""
         seen = observed(spec)
         with self.lock:
             by_env = {  # this env's, if measured, and every other env's seen the same way
-                env: float(np.mean([t.seconds_at(spec.budget) for t in timings]))
-                for (o, env, algorithm), timings in self.done.items()
+                env: tally.mean_at(spec.budget)
+                for (o, env, algorithm), tally in self.done.items()
                 if o == seen and algorithm == spec.algorithm
             }
-            here = len(self.done.get((seen, spec.env_id, spec.algorithm), []))
+            here = self.done.get((seen, spec.env_id, spec.algorithm), Tally()).trials
         if spec.env_id in by_env:
             return by_env[spec.env_id], f"mean of {here} trials"
         if by_env:

@@ -24,6 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from bench import atomic, envs, paths
+from bench.errors import BadInput
 from bench.experts import load_expert
 from bench.pixels import PixelConfig, camera, newest_frames, stack_episode
 from bench.types import ActionDemos, Demos
@@ -38,7 +39,7 @@ FORMAT = "v2"
 """Bumped when the file layout changes, so a cached pool of the old layout is re-recorded."""
 
 
-class DemoError(ValueError):
+class DemoError(BadInput, ValueError):
     """A demo file that is missing, malformed, or recorded in another env."""
 
 

@@ -16,6 +16,7 @@ from collections.abc import Iterator
 import gymnasium as gym
 import numpy as np
 
+from bench.errors import BadInput
 from bench.pixels import Frames, PixelConfig
 
 PAPER_ENVS = (
@@ -28,7 +29,7 @@ PAPER_ENVS = (
 )
 
 
-class EnvError(ValueError):
+class EnvError(BadInput, ValueError):
     """An env id that cannot be made, or one whose spaces ifo-bench cannot use."""
 
 

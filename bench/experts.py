@@ -22,6 +22,7 @@ from tqdm import tqdm
 
 import bench
 from bench import atomic, envs, paths
+from bench.errors import BadInput
 from bench.rl.networks import DeterministicPolicy, GaussianPolicy, orthogonal_init
 from bench.rl.rollout import evaluate
 from bench.rl.trpo import TRPO, TRPOConfig, train
@@ -44,7 +45,7 @@ class ExpertConfig(TRPOConfig):
     scaled by 0.01), as the learners start."""
 
 
-class ExpertError(FileNotFoundError):
+class ExpertError(BadInput, FileNotFoundError):
     def __str__(self) -> str:
         return str(self.args[0])
 

@@ -18,12 +18,13 @@ import gymnasium as gym
 import numpy as np
 
 from bench import demos, envs
+from bench.errors import BadInput
 
 NAMESPACE = "ifo-bench"
 DATASET_NAME = "expert-v0"
 
 
-class DatasetError(ValueError):
+class DatasetError(BadInput, ValueError):
     """A dataset that cannot be written or read as asked; the message is one line."""
 
 

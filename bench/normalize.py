@@ -11,6 +11,8 @@ from __future__ import annotations
 
 import pandas as pd
 
+from bench.errors import BadInput
+
 RANDOM, EXPERT = "random", "expert"
 REFERENCES = (RANDOM, EXPERT)
 """The reference algorithms that define 0 and 1; every other algorithm is a learner."""
@@ -41,7 +43,7 @@ def demo_free(df: pd.DataFrame) -> pd.Series:
     return df.groupby("algorithm")["n_demos"].transform("max") == 0
 
 
-class NormalizationError(ValueError):
+class NormalizationError(BadInput, ValueError):
     """An env without a usable random or expert reference; the message is one line."""
 
 

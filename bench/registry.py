@@ -46,6 +46,7 @@ import gymnasium as gym
 import numpy as np
 
 from bench import validate
+from bench.errors import BadInput
 from bench.pixels import PixelConfig
 
 Inputs = Literal["none", "states", "actions", "expert"]
@@ -157,7 +158,7 @@ class Algorithm:
         return self.config(**overrides)
 
 
-class RegistryError(KeyError):
+class RegistryError(BadInput, KeyError):
     def __str__(self) -> str:
         return str(self.args[0])
 

@@ -86,21 +86,20 @@ def run_suite(
     tensorboard: str | Path | None = None,
     first: Collection[str] = (),
     limit: TimeLimit | None = None,
-    costs: CostModel | None = None,
+    priced_by: Path | None = None,
 ) -> RunSummary:
     """Run every pending trial in parallel, writing each record as it finishes; with
     `tensorboard`, each trial's scalars go there live as TensorBoard events. The trials of
-    the algorithms `first` (names or labels) start before the others'. Trials are priced by
-    `costs` (default: learned from `results_dir`'s records), which learns from each trial as
-    it finishes; under a time `limit`, a trial starts only if it is expected to finish in
-    time, and the rest are left pending."""
+    the algorithms `first` (names or labels) start before the others'. Trials are priced by the
+    records of every results folder under `priced_by` (default: `results_dir`'s own), read
+    only when something is pending, and by each trial as it finishes; under a time `limit`, a
+    trial starts only if it is expected to finish in time, and the rest are left pending."""
     records = list(store.scan(results_dir))
     todo = pending(specs, {r.trial_id: r.status for r in records}, retry_failed)
     skipped = len(specs) - len(todo)
     if not todo:
         return RunSummary(0, 0, skipped)
-    if costs is None:
-        costs = CostModel.of(records)
+    costs = CostModel.of(records if priced_by is None else store.scan_under(priced_by))
     plans = [plan(s) for s in todo]
     sources = {
         (p.spec.env_id, p.spec.dataset or "", p.filmed)

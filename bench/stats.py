@@ -19,6 +19,7 @@ import numpy as np
 import pandas as pd
 import scipy.stats
 
+from bench.errors import BadInput
 from bench.normalize import REFERENCES, demo_free
 
 
@@ -268,7 +269,7 @@ def _seeded(seed: int) -> Iterator[None]:
         np.random.set_state(saved)
 
 
-class ComparisonError(ValueError):
+class ComparisonError(BadInput, ValueError):
     """Two results folders that cannot be compared; the message is one line."""
 
 

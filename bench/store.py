@@ -25,6 +25,7 @@ import numpy as np
 import pandas as pd
 
 from bench import atomic
+from bench.errors import BadInput
 from bench.types import CurvePoint, TrialResult, TrialSpec
 
 TRIALS = "trials"
@@ -55,7 +56,7 @@ LOCK = ".lock"
 """A results folder's lock file: held (flock) by the one `bench run` writing into it."""
 
 
-class FolderBusy(RuntimeError):
+class FolderBusy(BadInput, RuntimeError):
     """A results folder that cannot be written now; the message is one line."""
 
 
@@ -188,6 +189,12 @@ def find_result_dirs(root: str | Path) -> list[Path]:
 
 
 # ---------------------------------------------------------------- helpers
+
+
+def scan_under(root: str | Path) -> Iterator[TrialResult]:
+    """`scan` of every results folder under `root` (`find_result_dirs`)."""
+    for results_dir in find_result_dirs(root):
+        yield from scan(results_dir)
 
 
 def scan(results_dir: str | Path) -> Iterator[TrialResult]:

@@ -20,6 +20,7 @@ import numpy as np
 from PIL import Image, ImageDraw, ImageFont
 
 from bench import envs, experts, labels, policies, store
+from bench.errors import BadInput
 from bench.normalize import ORACLE, REFERENCES, normalize
 from bench.pixels import PixelConfig
 from bench.registry import Policy
@@ -32,7 +33,7 @@ TITLE_HEIGHT = 22
 FONT = ImageFont.load_default(size=14)
 
 
-class VideoError(ValueError):
+class VideoError(BadInput, ValueError):
     """A selection that matches nothing playable; the message is one line."""
 
 

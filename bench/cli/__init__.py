@@ -12,8 +12,8 @@ import warnings
 from collections.abc import Callable
 
 from bench.cli import experts, results, run, video
-from bench.cli.args import OneLineParser, UsageError
-from bench.envs import EnvError
+from bench.cli.args import OneLineParser
+from bench.errors import BadInput
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -28,34 +28,6 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-def _user_errors() -> tuple[type[Exception], ...]:
-    """Exceptions that mean bad input: printed as one line, exit status 2."""
-    from bench.demos import DemoError
-    from bench.experts import ExpertError
-    from bench.minari_io import DatasetError
-    from bench.normalize import NormalizationError
-    from bench.registry import RegistryError
-    from bench.stats import ComparisonError
-    from bench.store import FolderBusy
-    from bench.suite import SuiteError
-    from bench.video import VideoError
-
-    return (
-        UsageError,
-        FolderBusy,
-        VideoError,
-        EnvError,
-        SuiteError,
-        RegistryError,
-        ExpertError,
-        DemoError,
-        NormalizationError,
-        ComparisonError,
-        DatasetError,
-        FileNotFoundError,
-    )
-
-
 def _one_line_warning(message, category, filename, lineno, line=None) -> str:
     return f"bench: warning: {message}\n"
 
@@ -66,7 +38,7 @@ def main(argv: list[str] | None = None) -> int:
     func: Callable[[argparse.Namespace], int] = args.func
     try:
         return func(args)
-    except _user_errors() as e:
+    except (BadInput, FileNotFoundError) as e:  # bench's own errors, and a missing path
         print(f"bench: error: {e}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:

@@ -7,8 +7,10 @@ import re
 from collections.abc import Callable
 from pathlib import Path
 
+from bench.errors import BadInput
 
-class UsageError(ValueError):
+
+class UsageError(BadInput, ValueError):
     """A command-line argument that cannot work; the message is one line."""
 
 

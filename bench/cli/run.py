@@ -11,15 +11,17 @@ from bench.cli.args import duration, folder, jobs_count
 
 
 def _run(args: argparse.Namespace) -> int:
-    from bench import store
-    from bench.costs import CostModel, TimeLimit
-    from bench.runner import run_suite
     from bench.suite import expand, load_suite, select
 
     suite = load_suite(args.suite)
     specs = select(
         expand(suite), args.suite, env=args.env, algorithm=args.algorithm, demos=args.demos
     )
+    # Only now the heavy imports (pandas, torch): a bad suite is one line in about a second.
+    from bench import store
+    from bench.costs import TimeLimit
+    from bench.runner import run_suite
+
     results = Path(args.results) if args.results else Path("results") / suite.name
     backend = args.backend or suite.runner.backend
     jobs = args.jobs if args.jobs is not None else suite.runner.jobs
@@ -33,7 +35,6 @@ def _run(args: argparse.Namespace) -> int:
             copied = reuse(specs, results, args.reuse)
             print(f"{copied} finished trials copied from {', '.join(args.reuse)}", file=sys.stderr)
         # Priced as --estimate prices them; a time limit counts from now on.
-        costs = CostModel.of(_priced_by(results))
         limit = None if args.time_limit is None else TimeLimit.starting_now(args.time_limit)
         summary = run_suite(
             specs,
@@ -45,7 +46,7 @@ def _run(args: argparse.Namespace) -> int:
             tensorboard=args.tensorboard,
             first=suite.runner.first,
             limit=limit,
-            costs=costs,
+            priced_by=results.parent,
         )
     print(
         f"{summary.done} trials done, {summary.failed} failed, "
@@ -61,13 +62,6 @@ def _run(args: argparse.Namespace) -> int:
     return 1 if summary.failed else 0
 
 
-def _priced_by(results: Path) -> list:
-    """The records trials are priced by: every one under the results folder's parent."""
-    from bench import store
-
-    return [r for d in store.find_result_dirs(results.parent) for r in store.scan(d)]
-
-
 def _estimate(specs: list, results: Path, jobs: int) -> int:
     """Print what the pending trials would cost, from every record under results/'s parent."""
     from bench import store
@@ -76,7 +70,7 @@ def _estimate(specs: list, results: Path, jobs: int) -> int:
 
     finished = {r.trial_id: r.status for r in store.scan(results)}
     todo = pending(specs, finished, retry_failed=False)
-    rows = estimate(todo, _priced_by(results))
+    rows = estimate(todo, store.scan_under(results.parent))
     print(f"{len(todo)} of {len(specs)} trials pending -> {results}/")
     width = max([36, *(len(r.env_id) for r in rows)])
     print(

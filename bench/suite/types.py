@@ -5,8 +5,10 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any
 
+from bench.errors import BadInput
 
-class SuiteError(ValueError):
+
+class SuiteError(BadInput, ValueError):
     """A suite file that cannot be run; the message is one line."""
 
 
