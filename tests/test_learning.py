@@ -28,10 +28,12 @@ def run(tmp_path, body: str):
 @pytest.mark.parametrize("learner", ["gaifo", "gail"])
 def test_adversarial_learners_imitate_inverted_pendulum_from_one_demonstration(tmp_path, learner):
     # The suites' setting for this task: a 4,096-step TRPO batch (README, "Batch size per task")
-    # and 25 discriminator steps per update (README, "D's pace").
+    # and 25 discriminator steps per update (README, "D's pace"), at 70k steps, not the suite's
+    # 100k: in results/pybullet's learning curves (1 demo, seeds 0-9) every seed of both is at
+    # 1,000 from 65,536 steps on, one TRPO update before the end here.
     df = run(
         tmp_path,
-        f"name: learn\nenvs: {{{PENDULUM}: {{budget: 100000, trpo: {{n_envs: 16}},"
+        f"name: learn\nenvs: {{{PENDULUM}: {{budget: 70000, trpo: {{n_envs: 16}},"
         " hyperparams: {disc_steps: 25}}}\n"
         f"demos: [1]\nalgorithms: [random, expert, {learner}]\nseeds: {SEEDS}\n"
         "eval_episodes: 10\n",
@@ -39,13 +41,13 @@ def test_adversarial_learners_imitate_inverted_pendulum_from_one_demonstration(t
     runs = df[df.algorithm == learner]
     assert len(runs) == len(SEEDS)
     shown = runs[["seed", "return", "normalized"]]
-    # Measured with this setting, 1 demo: seeds 0-29 all >= 0.95 for both on two machines (all
-    # 1.00 on the second, and seeds 0-9 at 5, 10 and 25 demos too). Another CPU may still move a
-    # seed across, so one of four may miss 0.95; a second, or a median below 0.95, means it
-    # broke. This test passes on seeds 0-3 and on the disjoint 10-13.
+    # Measured with this setting, 1 demo, at 100k: seeds 0-29 all >= 0.95 for both on two
+    # machines (all 1.00 on the second, and seeds 0-9 at 5, 10 and 25 demos too); at 70k: seeds
+    # 0-3 and 10-13 all 1.00 for both. Another CPU may still move a seed across, so one of four
+    # may miss 0.95; a second, or a median below 0.95, means it broke.
     assert runs.normalized.median() >= 0.95, shown
     assert (runs.normalized >= 0.95).sum() >= len(SEEDS) - 1, shown
-    assert (runs.env_steps <= 100_000).all()
+    assert (runs.env_steps <= 70_000).all()
     logs = store.load_logs(tmp_path / "res")
     assert {
         "disc_loss",
