@@ -31,7 +31,7 @@ def cost_kind(spec: TrialSpec) -> tuple[str, str]:
 @dataclass
 class Tally:
     """What the finished trials of one kind say about the cost of a like trial, as running
-    sums, so pricing stays constant time however many records there are."""
+    sums: a price costs the same however many records there are."""
 
     trials: int = 0
     seconds_per_step: float = 0.0
