@@ -14,6 +14,7 @@ stored: DAC's way, (s, a, s_a) then the loop (s_a, 0, s_a) once, on both sides.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import torch
@@ -22,8 +23,8 @@ import torch.nn.functional as F
 from algorithms.adversarial import REWARDS, Discriminator, Features
 from algorithms.gaifo import state_transition
 from algorithms.gail import state_action
-from bench.registry import Logger, Policy, Task, register
-from bench.rl import sac
+from bench.registry import Logger, Policy, Task, register, snapshots_of
+from bench.rl import sac, stateful
 from bench.rl.absorbing import Transitions
 from bench.rl.networks import RunningNorm
 from bench.types import ActionDemos, Demos
@@ -99,36 +100,41 @@ def uniform(shape: tuple[int, ...], gen: torch.Generator, device: torch.device) 
     return torch.rand(shape, generator=gen).to(device)
 
 
-def current_d_reward(
-    disc: Discriminator,
-    expert: sac.ReplayBatch,
-    cfg: OffPolicyAdversarialConfig,
-    seed: int,
-) -> sac.SACRewardFn:
+class CurrentDReward:
     """The critic's reward hook: for each replay minibatch, one Adam step of D on it against
     as many expert transitions, then D's reward for that minibatch from D as it is after the
     step, with D's diagnostics to log."""
-    opt = torch.optim.Adam(disc.net.parameters(), lr=cfg.disc_lr, foreach=True)
-    gen = torch.Generator().manual_seed(seed + 2)
-    reward = REWARDS[cfg.reward]
 
-    def reward_fn(batch: sac.ReplayBatch) -> sac.Logged:
-        e_batch = sample_of(expert, len(batch.obs), gen)
+    def __init__(
+        self,
+        disc: Discriminator,
+        expert: sac.ReplayBatch,
+        cfg: OffPolicyAdversarialConfig,
+        seed: int,
+    ) -> None:
+        self.disc, self.expert, self.cfg = disc, expert, cfg
+        self.opt = torch.optim.Adam(disc.net.parameters(), lr=cfg.disc_lr, foreach=True)
+        self.gen = torch.Generator().manual_seed(seed + 2)
+        self.reward = REWARDS[cfg.reward]
+
+    def __call__(self, batch: sac.ReplayBatch) -> sac.Logged:
+        disc, cfg = self.disc, self.cfg
+        e_batch = sample_of(self.expert, len(batch.obs), self.gen)
         p = disc.inputs(replay_transitions(batch))
         e = disc.inputs(replay_transitions(e_batch))
         logit_p, logit_e = disc.net(p).squeeze(-1), disc.net(e).squeeze(-1)
         bce = F.binary_cross_entropy_with_logits(
             logit_p, torch.zeros_like(logit_p)
         ) + F.binary_cross_entropy_with_logits(logit_e, torch.ones_like(logit_e))
-        alpha = uniform((len(p), 1), gen, p.device)
+        alpha = uniform((len(p), 1), self.gen, p.device)
         mix = (alpha * e + (1 - alpha) * p).detach().requires_grad_(True)
         grad = torch.autograd.grad(disc.net(mix).sum(), mix, create_graph=True)[0]
         penalty = grad.norm(dim=1).square().mean()
-        opt.zero_grad()
+        self.opt.zero_grad()
         (bce + cfg.grad_penalty * penalty).backward()
-        opt.step()
+        self.opt.step()
         with torch.no_grad():  # the reward of this very minibatch, from D as it is now
-            rewards = reward(disc.net(p).squeeze(-1))
+            rewards = self.reward(disc.net(p).squeeze(-1))
         logged = {
             "disc_loss": bce.item(),
             "disc_acc_policy": (logit_p < 0).float().mean().item(),
@@ -137,7 +143,14 @@ def current_d_reward(
         }
         return sac.Logged(rewards, logged)
 
-    return reward_fn
+    def parts(self) -> dict[str, Any]:
+        return {"disc": self.disc, "opt": self.opt, "gen": self.gen}
+
+    def state_dict(self) -> dict[str, Any]:
+        return stateful.state_of(self.parts())
+
+    def load_state_dict(self, state: dict[str, Any]) -> None:
+        stateful.load_into(self.parts(), state)
 
 
 def train_offpolicy_adversarial(
@@ -155,7 +168,7 @@ def train_offpolicy_adversarial(
     norm = RunningNorm.of(np.concatenate(demos.observations))  # D's scale: the expert's, fixed
     disc = Discriminator(norm, features, task.obs_dim, task.act_dim, cfg.disc_hidden, True)
     disc = disc.to(device)
-    reward_fn = current_d_reward(disc, expert, cfg, seed)
+    reward_fn = CurrentDReward(disc, expert, cfg, seed)
     return train_on_reward(task, budget, seed, logger, cfg, reward_fn)
 
 
@@ -169,14 +182,21 @@ def train_on_reward(
     learner: sac.OffPolicyLearner | None = None,
 ) -> Policy:
     """SAC (or `learner`, as OPOLO's TD3) on `reward_fn` (None: the env's), logging and
-    offering its policy as it goes."""
+    offering its policy as it goes, and saving snapshots where the runner keeps them."""
 
     def report(steps: int, learner: sac.SAC, info: dict[str, float]) -> None:
         logger.log(steps, **info)
         logger.checkpoint(steps, sac.DeterministicActor(learner.actor))
 
     learner = sac.train(
-        task.make_env, budget, seed, cfg, reward_fn, callback=report, learner=learner
+        task.make_env,
+        budget,
+        seed,
+        cfg,
+        reward_fn,
+        callback=report,
+        learner=learner,
+        snapshots=snapshots_of(logger),
     )
     return sac.DeterministicActor(learner.actor)
 

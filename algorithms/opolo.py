@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import copy
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import torch
@@ -43,7 +44,7 @@ from algorithms.offpolicy import (
     uniform,
 )
 from bench.registry import Logger, Policy, Task, register
-from bench.rl import sac
+from bench.rl import sac, stateful
 from bench.rl.networks import RunningNorm, mlp
 from bench.types import Demos
 from bench.validate import above, at_least
@@ -160,6 +161,19 @@ class OPOLO:
         self.gen = torch.Generator().manual_seed(seed + 3)
         self.updates = 0
         self.stats: dict[str, float] = {}
+
+    def parts(self) -> dict[str, Any]:
+        """Everything that changes as it learns (`bench.rl.stateful`), but for counters."""
+        networks = ("actor", "critic", "actor_target", "critic_target", "disc", "inverse")
+        optimizers = ("actor_opt", "critic_opt", "disc_opt", "inverse_opt")
+        return {name: getattr(self, name) for name in (*networks, *optimizers, "buffer", "gen")}
+
+    def state_dict(self) -> dict[str, Any]:
+        return {**stateful.state_of(self.parts()), "updates": self.updates, "stats": self.stats}
+
+    def load_state_dict(self, state: dict[str, Any]) -> None:
+        stateful.load_into(self.parts(), state)
+        self.updates, self.stats = state["updates"], dict(state["stats"])
 
     # ------------------------------------------------------------ acting and rewards
 

@@ -70,6 +70,9 @@ class CostModel:
     done: dict[tuple[str | None, str, str], Tally] = field(default_factory=dict)
     """Finished trials' timings by (how the env is seen, env, algorithm)."""
     lock: threading.Lock = field(default_factory=threading.Lock)  # joblib dispatches from a thread
+    done_before: dict[str, float] = field(default_factory=dict)
+    """Trial id -> the fraction of its budget a snapshot has behind it (`bench.snapshots`):
+    a resumed trial costs only what it has left."""
 
     @classmethod
     def of(cls, records: Iterable[TrialResult]) -> CostModel:
@@ -105,8 +108,10 @@ class CostModel:
         return None, f"no finished {spec.algorithm} trial"
 
     def seconds(self, spec: TrialSpec) -> float | None:
-        """Expected wall seconds of `spec` (None: nothing to go by)."""
-        return self.price(spec)[0]
+        """Expected wall seconds of `spec` (None: nothing to go by), less what its snapshot
+        has behind it."""
+        price = self.price(spec)[0]
+        return None if price is None else price * (1 - self.done_before.get(spec.trial_id, 0.0))
 
     def priority(self, spec: TrialSpec) -> tuple[int, float]:
         """Higher runs sooner: unpriced kinds first (by budget, to learn their cost), then by
@@ -138,18 +143,25 @@ class Estimate:
     """What the estimate rests on."""
 
 
-def estimate(specs: list[TrialSpec], records: Iterable[TrialResult]) -> list[Estimate]:
-    """Expected cost of `specs` per (env, algorithm) as `CostModel` prices them from `records`:
-    one trial's mean price, and its basis."""
+def estimate(
+    specs: list[TrialSpec],
+    records: Iterable[TrialResult],
+    done_before: dict[str, float] | None = None,
+) -> list[Estimate]:
+    """Expected cost of `specs` per (env, algorithm) as `CostModel` prices them from `records`
+    (less what their snapshots have behind them, `done_before`): one trial's mean price, and
+    its basis."""
     costs = CostModel.of(records)
+    costs.done_before = done_before or {}
     groups: dict[tuple[str, str], list[TrialSpec]] = {}
     for spec in specs:
         groups.setdefault(cost_kind(spec), []).append(spec)
     out = []
     for (env_id, algorithm), group in groups.items():
-        prices = [costs.price(spec) for spec in group]
-        seconds = None if prices[0][0] is None else float(np.mean([p for p, _ in prices]))
-        out.append(Estimate(env_id, algorithm, len(group), seconds, prices[0][1]))
+        basis = costs.price(group[0])[1]
+        prices = [costs.seconds(spec) for spec in group]
+        seconds = None if prices[0] is None else float(np.mean(prices))
+        out.append(Estimate(env_id, algorithm, len(group), seconds, basis))
     return out
 
 

@@ -19,8 +19,9 @@ from pathlib import Path
 import joblib
 from tqdm import tqdm
 
-from bench import policies, store
+from bench import policies, snapshots, store
 from bench.costs import CostModel, TimeLimit
+from bench.snapshots import SnapshotPlan
 from bench.trial import demo_pool, plan, run_trial
 from bench.types import TrialSpec
 
@@ -50,6 +51,7 @@ def _jobs(
     tensorboard: str | Path | None = None,
     first: Collection[str] = (),
     limit: TimeLimit | None = None,
+    snapshot_plan: SnapshotPlan | None = None,
 ) -> Iterator:
     """The trials as joblib calls: those of the algorithms `first` (names or labels) before the
     others; within each group, kinds with nothing to go by first (to learn their cost), then
@@ -72,7 +74,7 @@ def _jobs(
             return
         spec = max(fitting, key=order)  # first of equals: suite order
         remaining.remove(spec)
-        yield joblib.delayed(run_trial)(spec, plan(spec).inputs(), tensorboard)
+        yield joblib.delayed(run_trial)(spec, plan(spec).inputs(), tensorboard, snapshot_plan)
 
 
 def run_suite(
@@ -87,19 +89,26 @@ def run_suite(
     first: Collection[str] = (),
     limit: TimeLimit | None = None,
     priced_by: Path | None = None,
+    snapshot_every: float | None = snapshots.EVERY_S,
 ) -> RunSummary:
     """Run every pending trial in parallel, writing each record as it finishes; with
     `tensorboard`, each trial's scalars go there live as TensorBoard events. The trials of
     the algorithms `first` (names or labels) start before the others'. Trials are priced by the
     records of every results folder under `priced_by` (default: `results_dir`'s own), read
     only when something is pending, and by each trial as it finishes; under a time `limit`, a
-    trial starts only if it is expected to finish in time, and the rest are left pending."""
+    trial starts only if it is expected to finish in time, and the rest are left pending.
+    Trials whose algorithm takes snapshots save one every `snapshot_every` seconds under
+    `<results_dir>/.partial/` (None: never) and resume from it after an interruption."""
     records = list(store.scan(results_dir))
     todo = pending(specs, {r.trial_id: r.status for r in records}, retry_failed)
     skipped = len(specs) - len(todo)
     if not todo:
         return RunSummary(0, 0, skipped)
     costs = CostModel.of(records if priced_by is None else store.scan_under(priced_by))
+    snapshot_plan = None
+    if snapshot_every is not None:
+        snapshot_plan = SnapshotPlan.of(results_dir, snapshot_every)
+        costs.done_before = {s.trial_id: snapshot_plan.done_fraction(s.trial_id) for s in todo}
     plans = [plan(s) for s in todo]
     sources = {
         (p.spec.env_id, p.spec.dataset or "", p.filmed)
@@ -133,11 +142,14 @@ def run_suite(
                 workers = jobs if jobs > 0 else os.cpu_count() or 1
             unfinished = {spec.trial_id: spec for spec in todo}
             bar.set_postfix(left=costs.time_left(unfinished.values(), workers))
-            for result in parallel(_jobs(todo, costs, tensorboard, first, limit)):
+            trials = _jobs(todo, costs, tensorboard, first, limit, snapshot_plan)
+            for result in parallel(trials):
                 del unfinished[result.trial_id]
                 if result.policy is not None:  # before the record: a record implies its policy
                     policies.write(results_dir, result.trial_id, result.policy)
                 store.write(results_dir, result)
+                if snapshot_plan is not None:  # a record (ok or failed) ends the trial
+                    snapshot_plan.discard(result.trial_id)
                 costs.observe(result)
                 if result.status == "ok":
                     done += 1

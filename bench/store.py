@@ -98,6 +98,8 @@ def write(results_dir: str | Path, result: TrialResult) -> Path:
     _remove_stale_tmp(folder)
     record = dataclasses.asdict(dataclasses.replace(result, policy=None))
     del record["policy"]  # a file of its own (bench.policies)
+    if not record["resumed_at"]:  # trials that ran in one go: records as they always were
+        del record["resumed_at"]
     text = json.dumps(_finite(record), allow_nan=False, indent=1)
     return atomic.write_text(record_path(results_dir, result.trial_id), text)
 
@@ -119,6 +121,7 @@ def read(path: str | Path) -> TrialResult:
         reference=raw.get("reference"),
         state_distance=raw.get("state_distance"),
         copied_from=raw.get("copied_from"),
+        resumed_at=raw.get("resumed_at", []),
     )
 
 

@@ -10,6 +10,8 @@ from __future__ import annotations
 
 import time
 import traceback
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from importlib.metadata import version
 from pathlib import Path
@@ -22,6 +24,7 @@ import torch
 from bench import demos, envs, experts, minari_io, policies, registry, state_match
 from bench.pixels import PixelConfig, VideoBeside
 from bench.rl.rollout import evaluate
+from bench.snapshots import SnapshotPlan
 from bench.types import CurvePoint, TrialResult, TrialSpec
 
 CURVE_POINTS = 10
@@ -36,17 +39,29 @@ class BudgetExceeded(RuntimeError):
     pass
 
 
+@dataclass
+class StepTally:
+    """The env steps a trial has taken, shared by all its envs."""
+
+    steps: int = 0
+    counting: bool = True
+    """Off while an env replays steps already counted (`TrialSnapshots.replaying`)."""
+
+
 class StepCounter(gym.Wrapper):
     """Counts every step into a shared tally and stops the trial past its budget."""
 
-    def __init__(self, env: gym.Env, tally: list[int], budget: int) -> None:
+    def __init__(self, env: gym.Env, tally: StepTally, budget: int) -> None:
         super().__init__(env)
         self.tally, self.budget = tally, budget
 
     def step(self, action):
-        self.tally[0] += 1
-        if self.tally[0] > self.budget:
-            raise BudgetExceeded(f"algorithm took more than its budget of {self.budget} env steps")
+        if self.tally.counting:
+            self.tally.steps += 1
+            if self.tally.steps > self.budget:
+                raise BudgetExceeded(
+                    f"algorithm took more than its budget of {self.budget} env steps"
+                )
         return self.env.step(action)
 
 
@@ -63,6 +78,8 @@ class TrialLogger:
 
     events: Any = None
     """A TensorBoard SummaryWriter that gets every scalar as it is logged (None: records only)."""
+    snapshots: TrialSnapshots | None = None
+    """The trial's `registry.Snapshots`, where the runner keeps them (None: it does not)."""
 
     def checkpoint(self, env_steps: int, policy: registry.Policy) -> None:
         if env_steps >= self._next:
@@ -78,6 +95,64 @@ class TrialLogger:
             self.logs.setdefault(k, []).append(float(v))
             if self.events is not None:
                 self.events.add_scalar(f"train/{k}", float(v), int(env_steps))
+
+
+@dataclass
+class TrialSnapshots:
+    """The runner's side of `registry.Snapshots` for one trial: the algorithm's state saved
+    with the trial's own (env steps, learning curve, logs, time spent), so a resumed trial's
+    record reads as if it had run in one go, but for `resumed_at`."""
+
+    plan: SnapshotPlan
+    spec: TrialSpec
+    tally: StepTally
+    logger: TrialLogger
+    spent_before: float = 0.0
+    """Wall seconds the trial trained before this run resumed it (up to its snapshot)."""
+    resumed_at: list[int] = field(default_factory=list)
+    started: float = field(default_factory=time.time)
+    _last: float = field(default_factory=time.monotonic)
+
+    def spent(self) -> float:
+        """Wall seconds of training so far, runs before this one's included."""
+        return self.spent_before + time.time() - self.started
+
+    def due(self) -> bool:
+        return time.monotonic() - self._last >= self.plan.every_s
+
+    def save(self, state: dict[str, Any]) -> None:
+        trial = {
+            "env_steps": self.tally.steps,
+            "curve": [[p.env_steps, p.mean_return] for p in self.logger.curve],
+            "logs": self.logger.logs,
+            "next_eval": self.logger._next,
+            "spent_s": self.spent(),
+            "resumed_at": self.resumed_at,
+        }
+        payload = {"format": 1, "trial": trial, "algorithm": state}
+        self.plan.write(self.spec.trial_id, payload, self.tally.steps, self.spec.budget)
+        self._last = time.monotonic()
+
+    def load(self) -> dict[str, Any] | None:
+        payload = self.plan.read(self.spec.trial_id)
+        if payload is None:
+            return None
+        trial = payload["trial"]
+        self.tally.steps = trial["env_steps"]
+        self.logger.curve = [CurvePoint(int(s), float(r)) for s, r in trial["curve"]]
+        self.logger.logs = trial["logs"]
+        self.logger._next = trial["next_eval"]
+        self.spent_before, self.started = trial["spent_s"], time.time()
+        self.resumed_at = [*trial["resumed_at"], trial["env_steps"]]
+        return payload["algorithm"]
+
+    @contextmanager
+    def replaying(self) -> Iterator[None]:
+        self.tally.counting = False
+        try:
+            yield
+        finally:
+            self.tally.counting = True
 
 
 def event_dir(root: str | Path, spec: TrialSpec) -> Path:
@@ -134,8 +209,8 @@ class Plan:
             return VideoBeside(envs.make(self.spec.env_id, seed, self.beside))
         return envs.make(self.spec.env_id, seed, self.pixels)
 
-    def task(self, tally: list[int]) -> registry.Task:
-        """The trial's Task: its envs count every step into `tally[0]` and stop past the
+    def task(self, tally: StepTally) -> registry.Task:
+        """The trial's Task: its envs count every step into `tally` and stop past the
         budget."""
         obs_dim, act_dim, low, high = envs.spaces(self.spec.env_id, self.pixels)
         budget = self.spec.budget
@@ -190,15 +265,24 @@ def expert_distance(spec: TrialSpec, visited: list[np.ndarray]) -> float | None:
     return state_match.state_distance(np.concatenate(visited), expert_states)
 
 
-def run_trial(spec: TrialSpec, inputs: Any, tensorboard: str | Path | None = None) -> TrialResult:
+def run_trial(
+    spec: TrialSpec,
+    inputs: Any,
+    tensorboard: str | Path | None = None,
+    snapshots: SnapshotPlan | None = None,
+) -> TrialResult:
     """Train `spec.algorithm` and evaluate it; never raises (a failure is a failed record).
-    With `tensorboard`, every scalar it logs is also written there as it comes (`event_dir`)."""
+    With `tensorboard`, every scalar it logs is also written there as it comes (`event_dir`).
+    With `snapshots`, an algorithm that takes them saves its state there as it trains and
+    resumes from it, where an earlier run of this trial was cut off."""
     torch.set_num_threads(1)  # joblib workers share the cores: one thread each
     start = time.time()
-    tally = [0]
+    tally = StepTally()
     eval_seed = EVAL_SEED + 1000 * spec.seed
     eval_envs: list[gym.Env] = []
     logger = TrialLogger(eval_envs, eval_seed, every=max(1, spec.budget // CURVE_POINTS))
+    if snapshots is not None:
+        logger.snapshots = TrialSnapshots(snapshots, spec, tally, logger)
     given = reference = distance = saved = None
     status, returns = "failed", []
     try:
@@ -229,20 +313,22 @@ def run_trial(spec: TrialSpec, inputs: Any, tensorboard: str | Path | None = Non
             env.close()
         if logger.events is not None:
             if status == "ok":
-                logger.events.add_scalar("eval/final_return", float(np.mean(returns)), tally[0])
+                logger.events.add_scalar("eval/final_return", float(np.mean(returns)), tally.steps)
             logger.events.close()
+    resumed = logger.snapshots
     return TrialResult(
         spec=spec,
         status=status,
         returns=[float(r) for r in returns],
         curve=logger.curve,
-        env_steps=tally[0],
-        wall_time=round(time.time() - start, 3),
+        env_steps=tally.steps,
+        wall_time=round(time.time() - start if resumed is None else resumed.spent(), 3),
         versions=versions(),
         traceback=tb,
         logs=logger.logs,
         inputs=given,
         reference=reference,
         state_distance=distance,
+        resumed_at=[] if resumed is None else resumed.resumed_at,
         policy=saved if status == "ok" else None,
     )

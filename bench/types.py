@@ -163,6 +163,9 @@ class TrialResult:
     copied_from: str | None = None
     """`<results dir>/trials/<id>.json` this record was copied from by `bench run --reuse`: the
     same trial (every setting alike) run for another suite; None where it ran for this one."""
+    resumed_at: list[int] = field(default_factory=list)
+    """Env steps at which the trial was resumed from a snapshot (`bench.snapshots`) after an
+    interruption; empty where it trained in one go."""
     policy: bytes | None = field(default=None, repr=False)
     """The final policy's file (`bench.policies`), on its way from the worker to the driver,
     which writes it beside the record; never part of the record itself."""

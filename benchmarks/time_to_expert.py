@@ -23,7 +23,7 @@ import torch
 
 from bench import envs, experts
 from bench.rl.rollout import evaluate
-from bench.trial import plan
+from bench.trial import StepTally, plan
 from bench.types import TrialSpec
 
 
@@ -56,7 +56,7 @@ class ThresholdLogger:
 def run(spec: TrialSpec, lo: float, hi: float, threshold: float, every: int) -> tuple:
     torch.set_num_threads(1)
     trial = plan(spec)
-    algo, task = trial.algorithm, trial.task(tally=[0])
+    algo, task = trial.algorithm, trial.task(StepTally())
     logger = ThresholdLogger(spec.env_id, lo, hi, threshold, every)
     try:
         algo.train(

@@ -68,7 +68,7 @@ def test_rewards_come_from_the_current_discriminator(pendulum):
     norm = offpolicy.RunningNorm(obs_dim)
     norm.update(np.concatenate(demos.observations))
     disc = offpolicy.Discriminator(norm, offpolicy.state_transition, obs_dim, 1, (16, 16), True)
-    reward_fn = offpolicy.current_d_reward(disc, expert, cfg, 0)
+    reward_fn = offpolicy.CurrentDReward(disc, expert, cfg, 0)
     batch = sac.ReplayBatch(*(x[:32] for x in vars(expert).values()))  # any transitions
     out = reward_fn(batch)
     first = out.rewards

@@ -48,6 +48,7 @@ def _run(args: argparse.Namespace) -> int:
             first=suite.runner.first,
             limit=limit,
             priced_by=results.parent,
+            snapshot_every=args.snapshot_every,
         )
     print(
         f"{summary.done} trials done, {summary.failed} failed, "
@@ -64,14 +65,18 @@ def _run(args: argparse.Namespace) -> int:
 
 
 def _estimate(specs: list, results: Path, jobs: int) -> int:
-    """Print what the pending trials would cost, from every record under results/'s parent."""
+    """Print what the pending trials would cost, from every record under results/'s parent,
+    less what the snapshots of cut-off trials have behind them."""
     from bench import store
     from bench.costs import estimate
     from bench.runner import pending
+    from bench.snapshots import SnapshotPlan
 
     finished = {r.trial_id: r.status for r in store.scan(results)}
     todo = pending(specs, finished, retry_failed=False)
-    rows = estimate(todo, store.scan_under(results.parent))
+    snapshots = SnapshotPlan.of(results)
+    done_before = {s.trial_id: snapshots.done_fraction(s.trial_id) for s in todo}
+    rows = estimate(todo, store.scan_under(results.parent), done_before)
     print(f"{len(todo)} of {len(specs)} trials pending -> {results}/")
     width = max([36, *(len(r.env_id) for r in rows)])
     print(
@@ -150,6 +155,14 @@ def add(sub: argparse._SubParsersAction) -> None:
         metavar="DURATION",
         help="start only the trials expected to finish within DURATION from now (e.g. 2h30m;"
         " priced as --estimate prices them), dearest first; leave the rest for a later run",
+    )
+    run.add_argument(
+        "--snapshot-every",
+        type=duration,
+        default=10 * 60,
+        metavar="DURATION",
+        help="how often a trial whose algorithm supports it (the off-policy learners) saves its"
+        " state under RESULTS/.partial/, to resume from if the run is cut off (default 10m)",
     )
     run.add_argument(
         "--backend",

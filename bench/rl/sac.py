@@ -23,7 +23,7 @@ import time
 from collections.abc import Callable, Iterable, Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass
-from typing import Protocol
+from typing import Any, Protocol
 
 import gymnasium as gym
 import numpy as np
@@ -31,7 +31,8 @@ import torch
 import torch.nn.functional as F
 from torch import nn
 
-from bench.registry import added_later
+from bench.registry import Snapshots, added_later
+from bench.rl import stateful
 from bench.rl.absorbing import FLAG
 from bench.rl.networks import mlp
 
@@ -135,8 +136,22 @@ class ReplayBuffer:
 
     def sample(self, n: int, device: torch.device | str = "cpu") -> ReplayBatch:
         idx = self.rng.integers(self.count, size=n)
-        fields = (self.obs, self.actions, self.next_obs, self.env_rewards, self.not_done)
-        return ReplayBatch(*(torch.from_numpy(x[idx]).to(device) for x in fields))
+        return ReplayBatch(*(torch.from_numpy(x[idx]).to(device) for x in self._fields()))
+
+    def _fields(self) -> tuple[np.ndarray, ...]:
+        return self.obs, self.actions, self.next_obs, self.env_rewards, self.not_done
+
+    def state_dict(self) -> dict:
+        """The rows filled so far (as tensors: weights_only-safe), the cursor and the RNG."""
+        rows = [torch.from_numpy(x[: self.count].copy()) for x in self._fields()]
+        return {"rows": rows, "cursor": self.cursor, "rng": self.rng.bit_generator.state}
+
+    def load_state_dict(self, state: dict) -> None:
+        rows = state["rows"]
+        self.count, self.cursor = len(rows[0]), state["cursor"]
+        for field_, saved in zip(self._fields(), rows, strict=True):
+            field_[: self.count] = saved.numpy()
+        self.rng.bit_generator.state = state["rng"]
 
 
 def flagged(obs: np.ndarray, absorbing: bool = False) -> np.ndarray:
@@ -294,6 +309,18 @@ class SAC:
         self.target_params = list(self.target.parameters())
         self.buffer = ReplayBuffer(obs_dim, act_dim, cfg.buffer_size, seed)
 
+    def parts(self) -> dict[str, Any]:
+        """Everything that changes as it learns (`bench.rl.stateful`)."""
+        names = ("actor", "critic", "target", "log_alpha", "buffer")
+        optimizers = ("actor_opt", "critic_opt", "alpha_opt")
+        return {name: getattr(self, name) for name in (*names, *optimizers)}
+
+    def state_dict(self) -> dict[str, Any]:
+        return stateful.state_of(self.parts())
+
+    def load_state_dict(self, state: dict[str, Any]) -> None:
+        stateful.load_into(self.parts(), state)
+
     def explore(self, obs: torch.Tensor) -> torch.Tensor:
         """Actions to collect with: samples of the squashed Gaussian."""
         return self.actor.sample(obs)[0]
@@ -378,6 +405,52 @@ class OffPolicyLearner(Protocol):
 
     def update(self, batch: ReplayBatch, rewards: torch.Tensor) -> dict[str, float]: ...
 
+    def state_dict(self) -> dict[str, Any]: ...
+
+    def load_state_dict(self, state: dict[str, Any]) -> None: ...
+
+
+@dataclass
+class Episode:
+    """How an env's current episode began and the actions taken in it since: enough to bring
+    a new env to the very state the old one was in, since PyBullet steps deterministically on
+    one machine (on another the replayed state may differ in the last bits, as any result
+    does there)."""
+
+    start: int | dict
+    """The seed of a seeded reset, or the env's random state just before an unseeded one."""
+    actions: list[np.ndarray]
+
+    @classmethod
+    def begin(cls, env: gym.Env, seed: int | None = None) -> tuple[np.ndarray, Episode]:
+        """Reset `env` (with `seed`, if given): its first observation and the new episode."""
+        start = seed if seed is not None else copy.deepcopy(rng_state(env))
+        return env.reset(seed=seed)[0], cls(start, [])
+
+    def replay(self, env: gym.Env) -> np.ndarray:
+        """Bring `env`, a fresh env of the same seed, to where this episode is; its observation."""
+        if isinstance(self.start, int):
+            obs = env.reset(seed=self.start)[0]
+        else:
+            env.unwrapped.np_random.bit_generator.state = self.start
+            obs = env.reset()[0]
+        for action in self.actions:
+            obs = env.step(action)[0]
+        return obs
+
+    def state(self) -> dict:
+        actions = np.asarray(self.actions, np.float32) if self.actions else np.zeros((0, 0))
+        return {"start": self.start, "actions": torch.from_numpy(actions.astype(np.float32))}
+
+    @classmethod
+    def of_state(cls, state: dict) -> Episode:
+        return cls(state["start"], list(state["actions"].numpy()))
+
+
+def rng_state(env: gym.Env) -> dict:
+    """The state of the random generator an env resets with."""
+    return env.unwrapped.np_random.bit_generator.state
+
 
 Callback = Callable[[int, SAC, dict[str, float]], None]
 """callback(env_steps_so_far, learner, last_update_info and seconds spent collecting and
@@ -393,23 +466,56 @@ def train(
     callback: Callback | None = None,
     report_every: int | None = None,
     learner: OffPolicyLearner | None = None,
+    snapshots: Snapshots | None = None,
 ) -> SAC:
     """Run SAC (or `learner`, built beforehand) for `budget` env steps and return the learner.
     Without `reward_fn` it learns from the env's reward (0 on the absorbing loop). `callback`
-    runs every `report_every` env steps (default: a twentieth of the budget, at most 5,000)."""
+    runs every `report_every` env steps (default: a twentieth of the budget, at most 5,000).
+    With `snapshots`, it saves everything when one is due, and where the trial resumes, starts
+    from the last one: on the same machine, the very learner an uninterrupted run returns. A
+    `reward_fn` that learns (a discriminator) has a `state_dict` and `load_state_dict` too."""
     report_every = report_every or min(5_000, max(1, budget // 20))
     torch.set_num_threads(1)
     envs = [make_env(seed * 1000 + i) for i in range(cfg.n_envs)]
     space = envs[0].action_space
     low, high = space.low.astype(np.float32), space.high.astype(np.float32)
-    obs = np.stack([env.reset(seed=seed * 1000 + i)[0] for i, env in enumerate(envs)])
-    obs = obs.astype(np.float32).reshape(len(envs), -1)
+    begun = [Episode.begin(env, seed * 1000 + i) for i, env in enumerate(envs)]
+    obs = np.stack([o for o, _ in begun]).astype(np.float32).reshape(len(envs), -1)
+    episodes = [episode for _, episode in begun]
     learner = learner or SAC(obs.shape[1], len(low), low, high, cfg, seed)
     buffer = learner.buffer
     rng = np.random.default_rng(seed)
     reward = reward_fn or (lambda batch: batch.env_rewards)
     steps, owed, info, next_report = 0, 0.0, {}, report_every
     clock = {"collect_s": 0.0, "update_s": 0.0}
+    # What learns besides the learner: a reward with a state of its own (D), and the loop.
+    extra = {"reward": reward} if hasattr(reward, "state_dict") else {}
+
+    def snapshot() -> dict[str, Any]:
+        loop = {"steps": steps, "owed": owed, "info": info, "next_report": next_report}
+        return {
+            "learner": learner.state_dict(),
+            **{name: part.state_dict() for name, part in extra.items()},
+            "loop": {**loop, "clock": clock},
+            "rng": rng.bit_generator.state,
+            "torch_rng": torch.get_rng_state(),
+            "episodes": [episode.state() for episode in episodes],
+        }
+
+    resumed = snapshots.load() if snapshots is not None else None
+    if resumed is not None:
+        learner.load_state_dict(resumed["learner"])
+        for name, part in extra.items():
+            part.load_state_dict(resumed[name])
+        loop = resumed["loop"]
+        steps, owed, info = loop["steps"], loop["owed"], loop["info"]
+        next_report, clock = loop["next_report"], loop["clock"]
+        rng.bit_generator.state = resumed["rng"]
+        torch.set_rng_state(resumed["torch_rng"])
+        episodes = [Episode.of_state(e) for e in resumed["episodes"]]
+        with snapshots.replaying():
+            obs = np.stack([np.ravel(e.replay(env)) for e, env in zip(episodes, envs, strict=True)])
+        obs = obs.astype(np.float32)
     try:
         while steps + len(envs) <= budget:
             t0 = time.perf_counter()
@@ -425,8 +531,11 @@ def train(
             terminated = np.zeros(len(envs), bool)
             for i, env in enumerate(envs):
                 o, r, term, trunc, _ = env.step(actions[i])
+                episodes[i].actions.append(actions[i])
                 next_obs[i], rewards[i], terminated[i] = np.ravel(o), r, term
-                obs[i] = np.ravel(env.reset()[0]) if term or trunc else next_obs[i]
+                if term or trunc:
+                    o, episodes[i] = Episode.begin(env)
+                obs[i] = np.ravel(o)
             rows = transitions_of_step(
                 before, actions, next_obs, rewards, terminated, cfg.absorbing
             )
@@ -448,6 +557,8 @@ def train(
             if callback is not None and steps >= next_report:
                 callback(steps, learner, {**info, **clock})
                 next_report += report_every
+            if snapshots is not None and snapshots.due() and steps + len(envs) <= budget:
+                snapshots.save(snapshot())
     finally:
         for env in envs:
             env.close()

@@ -1,0 +1,94 @@
+"""Snapshots for real: an off-policy trial killed mid-run resumes from its last snapshot and
+ends exactly where it would have ended in one go (same machine, same seed)."""
+
+import dataclasses
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+
+import pytest
+
+from bench import policies, store
+from bench.costs import estimate
+from bench.runner import run_suite
+from bench.snapshots import FOLDER, SnapshotPlan
+from bench.suite import expand, load_suite
+from bench.types import TrialResult, TrialSpec
+
+PENDULUM = "InvertedPendulumBulletEnv-v0"
+
+pytestmark = pytest.mark.usefixtures("demo_cache")
+
+
+def learning(folder) -> list:
+    """Snapshots saved after the learners' first update (at 300 steps)."""
+    saved = [json.loads(p.read_text()) for p in folder.glob("*.json")]
+    return [p for p in saved if p["env_steps"] > 300]
+
+
+def untimed(logs: dict) -> dict:
+    """Logs but for the seconds spent (`collect_s`, `update_s`), which no two runs share."""
+    return {k: v for k, v in logs.items() if not k.endswith("_s")}
+
+
+def test_a_killed_off_policy_trial_resumes_and_ends_as_if_never_stopped(tmp_path, cli):
+    # gaifo-sac: a reward (D) with a state of its own; opolo: a learner of its own (TD3, M, D)
+    tiny = "hidden: [16, 16], learning_starts: 300, batch_size: 32"
+    suite = tmp_path / "s.yaml"
+    suite.write_text(
+        f"name: snap\nenvs: {{{PENDULUM}: {{budget: 1000}}}}\ndemos: [1]\nalgorithms:"
+        f" [{{gaifo-sac: {{{tiny}}}}}, {{opolo: {{{tiny}, disc_hidden: [16, 16],"
+        " inverse_pretrain: 20, train_every: 100}}]\nseeds: 1\neval_episodes: 2\n"
+    )
+    specs = expand(load_suite(suite))
+    whole = tmp_path / "whole"
+    assert run_suite(specs, whole, jobs=2, progress=False, snapshot_every=None).failed == 0
+
+    cut = tmp_path / "cut"
+    run = [sys.executable, "-m", "bench.cli", "run", str(suite), "--results", str(cut)]
+    proc = subprocess.Popen(
+        [*run, "--jobs", "2", "--snapshot-every", "0.2s"],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+        start_new_session=True,
+    )
+    deadline = time.time() + 120
+    while len(learning(cut / FOLDER)) < 2 and time.time() < deadline:
+        time.sleep(0.05)
+    time.sleep(0.5)  # work past the snapshots, lost with the kill
+    os.killpg(proc.pid, signal.SIGKILL)  # driver and workers, mid-trial
+    proc.wait()
+    assert not list((cut / "trials").glob("*.json")), "the kill should land mid-trial"
+    assert len(list((cut / FOLDER).glob("*.pt"))) == 2
+
+    out = cli("run", str(suite), "--results", str(cut), "--jobs", "2")
+    assert out.returncode == 0, out.stderr
+    assert not list((cut / FOLDER).iterdir())  # a written record ends its snapshot
+    resumed = {r.trial_id: r for r in store.scan(cut)}
+    for one_go in store.scan(whole):
+        again = resumed[one_go.trial_id]
+        assert again.resumed_at and 300 < again.resumed_at[0] < 1000  # updates under way
+        assert again.env_steps == one_go.env_steps == 1000
+        assert again.returns == one_go.returns
+        assert again.curve == one_go.curve
+        assert untimed(again.logs) == untimed(one_go.logs)
+        kept = [policies.path(folder, one_go.trial_id).read_bytes() for folder in (whole, cut)]
+        assert kept[0] == kept[1]
+
+
+def test_a_cut_off_trial_is_priced_at_what_its_snapshot_leaves(tmp_path):
+    spec = TrialSpec("s", "A", "gaifo-sac", 5, 0, 1000, 10)
+    records = [TrialResult(spec, "ok", [1.0], [], 1000, 100.0, {})]
+    todo = [dataclasses.replace(spec, seed=seed) for seed in (1, 2)]
+    plan = SnapshotPlan.of(tmp_path)
+    plan.write(todo[0].trial_id, {"anything": 1}, env_steps=750, budget=1000)
+    done_before = {s.trial_id: plan.done_fraction(s.trial_id) for s in todo}
+    assert done_before == {todo[0].trial_id: 0.75, todo[1].trial_id: 0.0}
+    (row,) = estimate(todo, records, done_before)
+    assert row.seconds == pytest.approx((25.0 + 100.0) / 2)
+    assert plan.read(todo[0].trial_id) == {"anything": 1}
+    plan.discard(todo[0].trial_id)
+    assert plan.read(todo[0].trial_id) is None and plan.done_fraction(todo[0].trial_id) == 0.0
