@@ -10,6 +10,7 @@ atomic file per finished trial, as results stream back.
 
 from __future__ import annotations
 
+import itertools
 import os
 import warnings
 from collections.abc import Collection, Iterator
@@ -104,7 +105,8 @@ def run_suite(
     skipped = len(specs) - len(todo)
     if not todo:
         return RunSummary(0, 0, skipped)
-    costs = CostModel.of(records if priced_by is None else store.scan_under(priced_by))
+    others = [] if priced_by is None else store.scan_under(priced_by, besides=results_dir)
+    costs = CostModel.of(itertools.chain(records, others))
     snapshot_plan = None
     if snapshot_every is not None:
         snapshot_plan = SnapshotPlan.of(results_dir, snapshot_every)

@@ -194,10 +194,13 @@ def find_result_dirs(root: str | Path) -> list[Path]:
 # ---------------------------------------------------------------- helpers
 
 
-def scan_under(root: str | Path) -> Iterator[TrialResult]:
-    """`scan` of every results folder under `root` (`find_result_dirs`)."""
+def scan_under(root: str | Path, besides: str | Path | None = None) -> Iterator[TrialResult]:
+    """`scan` of every results folder under `root` (`find_result_dirs`), but `besides` (a
+    folder the caller has read already)."""
+    skip = None if besides is None else os.path.realpath(besides)
     for results_dir in find_result_dirs(root):
-        yield from scan(results_dir)
+        if os.path.realpath(results_dir) != skip:
+            yield from scan(results_dir)
 
 
 def scan(results_dir: str | Path) -> Iterator[TrialResult]:

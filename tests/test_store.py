@@ -188,3 +188,17 @@ def test_find_result_dirs_follows_linked_folders_once(tmp_path):
     (results / "offpolicy").symlink_to(elsewhere, target_is_directory=True)
     (results / "quick" / "loop").symlink_to(results, target_is_directory=True)
     assert store.find_result_dirs(results) == [results / "offpolicy", results / "quick"]
+
+
+def test_scan_under_leaves_out_a_folder_read_already(tmp_path):
+    """The runner reads its own folder's records first; pricing by the records of every folder
+    beside it must not read them again (linked in from elsewhere or not)."""
+    results = tmp_path / "results"
+    store.write(results / "quick", result(spec(seed=1)))
+    store.write(tmp_path / "scratch" / "offpolicy", result(spec(seed=2)))
+    (results / "offpolicy").symlink_to(tmp_path / "scratch" / "offpolicy")
+    seeds = [r.spec.seed for r in store.scan_under(results, besides=results / "quick")]
+    assert seeds == [2]
+    seeds = [r.spec.seed for r in store.scan_under(results, besides=tmp_path / "scratch/offpolicy")]
+    assert seeds == [1]
+    assert sorted(r.spec.seed for r in store.scan_under(results)) == [1, 2]
