@@ -1,7 +1,10 @@
+import contextlib
+import io
 import os
 import re
 import subprocess
 import sys
+import warnings
 
 import pytest
 import torch
@@ -37,6 +40,45 @@ def _bench_cli(*args: str, **kw) -> subprocess.CompletedProcess:
 def cli():
     """`cli("run", suite, ...)` runs the bench command in a subprocess, as a user would."""
     return _bench_cli
+
+
+def _bench_here(*args: str) -> subprocess.CompletedProcess:
+    """`bench ARGS` through the command's own `main`, in this process: what `cli` does but for
+    a new interpreter's imports (~3 s of CPU each, most of what a refused command costs).
+    Warnings are lines of its stderr, in order, filtered as a fresh interpreter filters them."""
+    from bench.cli import main
+
+    out, err = io.StringIO(), io.StringIO()
+
+    def show(message, category, filename, lineno, file=None, line=None):
+        err.write(warnings.formatwarning(message, category, filename, lineno, line))
+
+    captured = (contextlib.redirect_stdout(out), contextlib.redirect_stderr(err))
+    with captured[0], captured[1], warnings.catch_warnings():
+        warnings.simplefilter("default")
+        for quiet in (
+            DeprecationWarning,
+            PendingDeprecationWarning,
+            ImportWarning,
+            ResourceWarning,
+        ):
+            warnings.filterwarnings("ignore", category=quiet)
+        warnings.showwarning = show
+        formatwarning = warnings.formatwarning
+        try:
+            code = main(list(args))
+        except SystemExit as e:  # argparse: usage errors and --help
+            code = e.code if isinstance(e.code, int) else 1
+        finally:
+            warnings.formatwarning = formatwarning  # main sets its own
+    return subprocess.CompletedProcess(["bench", *args], code, out.getvalue(), err.getvalue())
+
+
+@pytest.fixture(scope="session")
+def bench_here():
+    """`bench_here("run", suite, ...)`: `cli` in this process, for the many refusals of bad input
+    (`cli` keeps checking the real command end to end)."""
+    return _bench_here
 
 
 @pytest.fixture()

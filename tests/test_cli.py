@@ -63,12 +63,14 @@ BAD_SUITES = {
 
 
 @pytest.mark.parametrize("case", sorted(BAD_SUITES))
-def test_bad_suite_is_one_line_exit_2_and_touches_nothing(case, finished_results, tmp_path, cli):
+def test_bad_suite_is_one_line_exit_2_and_touches_nothing(
+    case, finished_results, tmp_path, bench_here
+):
     body, needle = BAD_SUITES[case]
     suite = tmp_path / "bad.yaml"
     suite.write_text(body)
     before = snapshot(finished_results)
-    out = cli("run", str(suite), "--results", str(finished_results))
+    out = bench_here("run", str(suite), "--results", str(finished_results))
     assert out.returncode == 2
     lines = out.stderr.strip().splitlines()
     assert len(lines) == 1 and "Traceback" not in out.stderr, out.stderr
@@ -76,11 +78,13 @@ def test_bad_suite_is_one_line_exit_2_and_touches_nothing(case, finished_results
     assert snapshot(finished_results) == before
 
 
-def test_run_of_an_env_not_in_the_suite(finished_results, tmp_path, cli):
+def test_run_of_an_env_not_in_the_suite(finished_results, tmp_path, bench_here):
     suite = tmp_path / "good.yaml"
     suite.write_text("name: good\n" + GOOD)
     before = snapshot(finished_results)
-    out = cli("run", str(suite), "--results", str(finished_results), "--env", "HopperBulletEnv-v0")
+    out = bench_here(
+        "run", str(suite), "--results", str(finished_results), "--env", "HopperBulletEnv-v0"
+    )
     assert out.returncode == 2 and out.stderr.count("\n") == 1, out.stderr
     assert "HopperBulletEnv-v0" in out.stderr and "envs" in out.stderr
     assert snapshot(finished_results) == before
@@ -105,12 +109,12 @@ def test_plot_without_reference_trials_names_what_is_missing(tmp_path, cli):
     assert out.returncode == 2 and "expert" in out.stderr and out.stderr.count("\n") == 1
 
 
-def test_plot_of_missing_dir(cli):
-    out = cli("plot", "no/such/results")
+def test_plot_of_missing_dir(bench_here):
+    out = bench_here("plot", "no/such/results")
     assert out.returncode == 2 and "no/such/results" in out.stderr
 
 
-def test_help_of_every_command(cli):
+def test_help_of_every_command(bench_here):
     for args in (
         ["--help"],
         ["run", "--help"],
@@ -118,7 +122,7 @@ def test_help_of_every_command(cli):
         ["list", "--help"],
         ["experts", "train", "--help"],
     ):
-        out = cli(*args)
+        out = bench_here(*args)
         assert out.returncode == 0 and "usage: bench" in out.stdout
 
 
@@ -126,8 +130,8 @@ def test_help_of_every_command(cli):
     ("hyperparams", "message"),
     [('{"hiden": [128]}', "ExpertConfig has no field 'hiden'"), ("[1]", "must be a JSON object")],
 )
-def test_expert_hyperparams_are_checked_before_training(hyperparams, message, tmp_path, cli):
-    out = cli(
+def test_expert_hyperparams_are_checked_before_training(hyperparams, message, tmp_path, bench_here):
+    out = bench_here(
         "experts", "train", PENDULUM, "--hyperparams", hyperparams, "--out", str(tmp_path / "x")
     )
     assert out.returncode == 2 and message in out.stderr
@@ -147,17 +151,19 @@ SHIPPED = Path(__file__).resolve().parent.parent / "results" / "experts" / PENDU
         (["--replace", "--hyperparams", '{"hidden": "wide"}'], "bad TRPO settings"),
     ],
 )
-def test_experts_train_never_damages_the_shipped_expert(args, message, cli):
+def test_experts_train_never_damages_the_shipped_expert(args, message, bench_here):
     before = snapshot(SHIPPED)
-    out = cli("experts", "train", PENDULUM, "--steps", "4096", *args)
+    out = bench_here("experts", "train", PENDULUM, "--steps", "4096", *args)
     assert out.returncode == 2, out.stderr
     assert message in out.stderr and len(out.stderr.strip().splitlines()) == 1
     assert snapshot(SHIPPED) == before
 
 
-def test_experts_train_refuses_a_file_as_its_folder(tmp_path, cli):
+def test_experts_train_refuses_a_file_as_its_folder(tmp_path, bench_here):
     (tmp_path / "file").write_text("mine")
-    out = cli("experts", "train", PENDULUM, "--steps", "4096", "--out", str(tmp_path / "file"))
+    out = bench_here(
+        "experts", "train", PENDULUM, "--steps", "4096", "--out", str(tmp_path / "file")
+    )
     assert out.returncode == 2 and "is a file" in out.stderr
     assert (tmp_path / "file").read_text() == "mine"
 
@@ -180,7 +186,7 @@ def test_experts_train_refuses_a_file_as_its_folder(tmp_path, cli):
     ],
 )
 def test_unusable_arguments_are_one_line_before_any_work(
-    args, message, finished_results, tmp_path, cli
+    args, message, finished_results, tmp_path, bench_here
 ):
     (tmp_path / "good.yaml").write_text("name: good\n" + GOOD)
     (tmp_path / "file").write_text("mine")
@@ -190,7 +196,7 @@ def test_unusable_arguments_are_one_line_before_any_work(
         "file": tmp_path / "file",
         "results": finished_results,
     }
-    out = cli(*(a.format(**paths) for a in args))
+    out = bench_here(*(a.format(**paths) for a in args))
     assert out.returncode == 2, out.stderr
     assert message in out.stderr and len(out.stderr.strip().splitlines()) == 1, out.stderr
     assert snapshot(finished_results) == before and (tmp_path / "file").read_text() == "mine"
@@ -239,25 +245,29 @@ def _copy(results: Path, to: Path) -> Path:
     return Path(shutil.copytree(results, to))
 
 
-def test_plot_of_references_only_writes_the_table_without_a_figure(finished_results, tmp_path, cli):
+def test_plot_of_references_only_writes_the_table_without_a_figure(
+    finished_results, tmp_path, bench_here
+):
     results = _copy(finished_results, tmp_path / "res")
-    out = cli("plot", str(results))
+    out = bench_here("plot", str(results))
     assert out.returncode == 0, out.stderr
     assert "only references: no figure" in out.stderr and (results / "summary.csv").is_file()
     assert not (results / "figure2.png").exists()
 
 
-def test_plot_and_report_of_unreadable_records_are_one_line(finished_results, tmp_path, cli):
+def test_plot_and_report_of_unreadable_records_are_one_line(finished_results, tmp_path, bench_here):
     results = _copy(finished_results, tmp_path / "res")
     for record in (results / "trials").glob("*.json"):
         record.write_text(record.read_text()[:40])  # truncated
     for command in ("plot", "report"):
-        out = cli(command, str(results))
+        out = bench_here(command, str(results))
         assert out.returncode == 2 and "no readable trial record" in out.stderr.splitlines()[-1]
         assert "Traceback" not in out.stderr
 
 
-def test_a_record_of_another_budget_is_refused_not_averaged_in(finished_results, tmp_path, cli):
+def test_a_record_of_another_budget_is_refused_not_averaged_in(
+    finished_results, tmp_path, bench_here
+):
     import json
 
     results = _copy(finished_results, tmp_path / "res")
@@ -266,12 +276,12 @@ def test_a_record_of_another_budget_is_refused_not_averaged_in(finished_results,
     raw["spec"]["budget"] *= 10
     (results / "trials" / "foreign.json").write_text(json.dumps(raw))
     for command in ("plot", "report"):
-        out = cli(command, str(results))
+        out = bench_here(command, str(results))
         assert out.returncode == 2, out.stderr
         assert "2 budgets in one results folder" in out.stderr.splitlines()[-1]
 
 
-def test_an_ok_record_without_a_finite_return_is_reported(finished_results, tmp_path, cli):
+def test_an_ok_record_without_a_finite_return_is_reported(finished_results, tmp_path, bench_here):
     import json
 
     results = _copy(finished_results, tmp_path / "res")
@@ -281,5 +291,5 @@ def test_an_ok_record_without_a_finite_return_is_reported(finished_results, tmp_
     raw["spec"]["seed"], raw["returns"] = 7, [None, None]  # a second seed, with no return
     trial_id = TrialSpec(**raw["spec"]).trial_id
     (results / "trials" / f"{trial_id}.json").write_text(json.dumps(raw))
-    out = cli("plot", str(results))
+    out = bench_here("plot", str(results))
     assert out.returncode == 0 and "1 records left out (1 no finite return)" in out.stderr

@@ -93,9 +93,9 @@ def test_a_video_has_a_panel_per_policy_and_a_frame_per_step(finished, tmp_path,
         (["--out", "v.png"], "must end in .gif or .mp4"),
     ],
 )
-def test_a_video_of_nothing_is_one_line(finished, tmp_path, cli, args, message):
+def test_a_video_of_nothing_is_one_line(finished, tmp_path, bench_here, args, message):
     _, root = finished
-    out = cli("video", str(root / "res"), "--out", str(tmp_path / "v.gif"), *args)
+    out = bench_here("video", str(root / "res"), "--out", str(tmp_path / "v.gif"), *args)
     assert out.returncode == 2 and message in out.stderr
     assert len(out.stderr.strip().splitlines()) == 1
 

@@ -34,7 +34,7 @@ def untimed(logs: dict) -> dict:
     return {k: v for k, v in logs.items() if not k.endswith("_s")}
 
 
-def test_a_killed_off_policy_trial_resumes_and_ends_as_if_never_stopped(tmp_path, cli):
+def test_a_killed_off_policy_trial_resumes_and_ends_as_if_never_stopped(tmp_path, bench_here):
     # gaifo-sac: a reward (D) with a state of its own; opolo: a learner of its own (TD3, M, D)
     tiny = "hidden: [16, 16], learning_starts: 300, batch_size: 32"
     suite = tmp_path / "s.yaml"
@@ -64,7 +64,7 @@ def test_a_killed_off_policy_trial_resumes_and_ends_as_if_never_stopped(tmp_path
     assert not list((cut / "trials").glob("*.json")), "the kill should land mid-trial"
     assert len(list((cut / FOLDER).glob("*.pt"))) == 2
 
-    out = cli("run", str(suite), "--results", str(cut), "--jobs", "2")
+    out = bench_here("run", str(suite), "--results", str(cut), "--jobs", "2")
     assert out.returncode == 0, out.stderr
     assert not list((cut / FOLDER).iterdir())  # a written record ends its snapshot
     resumed = {r.trial_id: r for r in store.scan(cut)}
