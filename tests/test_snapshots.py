@@ -64,6 +64,8 @@ def test_a_killed_off_policy_trial_resumes_and_ends_as_if_never_stopped(tmp_path
     assert not list((cut / "trials").glob("*.json")), "the kill should land mid-trial"
     assert len(list((cut / FOLDER).glob("*.pt"))) == 2
 
+    out = bench_here("run", str(suite), "--results", str(cut), "--estimate")
+    assert "2 of them resume from a snapshot" in out.stdout, out.stdout
     out = bench_here("run", str(suite), "--results", str(cut), "--jobs", "2")
     assert out.returncode == 0, out.stderr
     assert not list((cut / FOLDER).iterdir())  # a written record ends its snapshot

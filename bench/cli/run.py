@@ -90,6 +90,12 @@ def _estimate(specs: list, results: Path, jobs: int) -> int:
         print(
             f"{r.env_id:{width}s} {r.algorithm:14s} {r.trials:6d} {each:>10s} {hours:>7s}  {r.basis}"
         )
+    cut_off = [f for f in done_before.values() if f > 0]
+    if cut_off:
+        print(
+            f"{len(cut_off)} of them resume from a snapshot, {100 * sum(cut_off) / len(cut_off):.0f}%"
+            " of their budget done on average (priced at what they have left)"
+        )
     cores = jobs if jobs > 0 else os.cpu_count() or 1
     unknown = sum(r.trials for r in rows if r.seconds is None)
     print(
