@@ -101,15 +101,20 @@ def run_suite(
     Trials whose algorithm takes snapshots save one every `snapshot_every` seconds under
     `<results_dir>/.partial/` (None: never) and resume from it after an interruption."""
     records = list(store.scan(results_dir))
-    todo = pending(specs, {r.trial_id: r.status for r in records}, retry_failed)
+    have = {r.trial_id: r.status for r in records}
+    todo = pending(specs, have, retry_failed)
     skipped = len(specs) - len(todo)
+    snapshot_plan = None
+    if snapshot_every is not None:
+        snapshot_plan = SnapshotPlan.of(results_dir, snapshot_every)
+        finished = {trial_id for trial_id, status in have.items() if status == "ok"}
+        for trial_id in snapshot_plan.saved() & finished:  # a run killed as a record landed
+            snapshot_plan.discard(trial_id)
     if not todo:
         return RunSummary(0, 0, skipped)
     others = [] if priced_by is None else store.scan_under(priced_by, besides=results_dir)
     costs = CostModel.of(itertools.chain(records, others))
-    snapshot_plan = None
-    if snapshot_every is not None:
-        snapshot_plan = SnapshotPlan.of(results_dir, snapshot_every)
+    if snapshot_plan is not None:
         costs.done_before = {s.trial_id: snapshot_plan.done_fraction(s.trial_id) for s in todo}
     plans = [plan(s) for s in todo]
     sources = {

@@ -69,6 +69,10 @@ class SnapshotPlan:
         except (OSError, ValueError, KeyError, TypeError, ZeroDivisionError):
             return 0.0
 
+    def saved(self) -> set[str]:
+        """The trial ids with a snapshot here."""
+        return {path.stem for path in self.folder.glob("*.pt")}
+
     def discard(self, trial_id: str) -> None:
         """Remove the trial's snapshot (its record is written: nothing to resume)."""
         for path in (self.progress_path(trial_id), self.path(trial_id)):

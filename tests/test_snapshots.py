@@ -69,6 +69,9 @@ def test_a_killed_off_policy_trial_resumes_and_ends_as_if_never_stopped(tmp_path
     out = bench_here("run", str(suite), "--results", str(cut), "--jobs", "2")
     assert out.returncode == 0, out.stderr
     assert not list((cut / FOLDER).iterdir())  # a written record ends its snapshot
+    left = SnapshotPlan.of(cut)  # as if a run were killed between a record and its removal
+    left.write(specs[0].trial_id, {"stale": True}, env_steps=500, budget=1000)
+    assert run_suite(specs, cut, progress=False).skipped == 2 and not left.saved()
     resumed = {r.trial_id: r for r in store.scan(cut)}
     for one_go in store.scan(whole):
         again = resumed[one_go.trial_id]
