@@ -29,7 +29,7 @@ from bench.learners import (
     PolicyAverage,
     report_each_update,
 )
-from bench.registry import Logger, Task, added_later
+from bench.registry import Logger, Task, added_later, snapshots_of
 from bench.rl import absorbing
 from bench.rl.absorbing import Transitions
 from bench.rl.networks import (
@@ -280,7 +280,7 @@ def train_adversarial(
     opt = torch.optim.Adam(disc.parameters(), lr=cfg.disc_lr)
     gen = torch.Generator().manual_seed(seed + 2)
     reward = REWARDS[cfg.reward]
-    average = PolicyAverage(cfg.policy_average)
+    average = PolicyAverage(cfg.policy_average, like=learner.policy)
     absorbing_probe = absorbing.tails(np.zeros((1, seen_dim)), task.act_dim, cfg.gamma).map(
         torch.as_tensor
     )
@@ -326,5 +326,7 @@ def train_adversarial(
         reward_fn=reward_fn,
         callback=report_each_update(task, logger, average),
         learner=learner,
+        snapshots=snapshots_of(logger),
+        keep={"disc": disc, "disc_opt": opt, "disc_gen": gen, "average": average},
     )
     return average.policy(learner, task)

@@ -32,7 +32,7 @@ import torch.nn.functional as F
 from torch import nn
 
 from bench.learners import deterministic, one_batch, report_each_update
-from bench.registry import Logger, Policy, Task, register
+from bench.registry import Logger, Policy, Task, register, snapshots_of
 from bench.rl.networks import ObsShape, body, normalizer
 from bench.rl.rollout import Batch, Rewards
 from bench.rl.shared_trunk import make_trpo
@@ -191,5 +191,6 @@ def train(
         reward_fn=reward_fn,
         callback=report_each_update(task, logger),
         learner=make_trpo(task.obs_shape, task.act_dim, cfg, seed),
+        snapshots=snapshots_of(logger),  # the reward, fixed once the embedding is trained
     )
     return deterministic(learner, task)

@@ -6,11 +6,13 @@ on a reward of the algorithm's own (from states or frames alike)."""
 from __future__ import annotations
 
 import copy
+from collections.abc import Mapping
 from dataclasses import dataclass
+from typing import Any
 
 import torch
 
-from bench.registry import Logger, Task
+from bench.registry import Logger, Task, snapshots_of
 from bench.rl.networks import DeterministicPolicy, GaussianPolicy
 from bench.rl.rollout import Batch, RewardFn
 from bench.rl.shared_trunk import make_trpo
@@ -56,9 +58,22 @@ class PolicyAverage:
     so the latest policy is a random draw around the imitation. Averaging the weights of the
     last updates, as is done for GAN generators, returns the centre instead."""
 
-    def __init__(self, decay: float) -> None:
-        self.decay = decay
+    def __init__(self, decay: float, like: GaussianPolicy | None = None) -> None:
+        """`like`: a policy of the averaged one's shape, to load a saved average into."""
+        self.decay, self.like = decay, like
         self.weights: GaussianPolicy | None = None
+
+    def state_dict(self) -> dict:
+        return {"weights": None if self.weights is None else self.weights.state_dict()}
+
+    def load_state_dict(self, state: dict) -> None:
+        if state["weights"] is None:
+            self.weights = None
+            return
+        if self.like is None:
+            raise ValueError("PolicyAverage needs `like` to load a saved average into")
+        self.weights = copy.deepcopy(self.like)
+        self.weights.load_state_dict(state["weights"])
 
     @torch.no_grad()
     def update(self, policy: GaussianPolicy) -> None:
@@ -102,17 +117,27 @@ def trpo_on_reward(
     logger: Logger,
     config: ImitationTRPOConfig,
     reward_fn: RewardFn | None,
+    reward_state: Mapping[str, Any] | None = None,
 ) -> DeterministicPolicy:
     """The imitators' TRPO, with their settings and their averaged policy, on `reward_fn` (None:
     the env's own reward, as the `oracle` control): what a learner with a reward of its own
-    needs, and what the controls run."""
-    average = PolicyAverage(config.policy_average)
-    learner = train(
+    needs, and what the controls run.
+
+    `reward_state`: what changes in the reward as it trains (its modules, optimizers and
+    generators, by name; {} for a reward that never changes), so the trial can be snapshotted
+    and resumed (`bench.snapshots`). None, the default: the reward's state is not known, and
+    the trial takes no snapshots."""
+    learner = make_trpo(task.obs_shape, task.act_dim, config, seed)
+    average = PolicyAverage(config.policy_average, like=learner.policy)
+    resumable = reward_state is not None
+    train(
         task.make_env,
         budget,
         seed,
         reward_fn=reward_fn,
         callback=report_each_update(task, logger, average=average),
-        learner=make_trpo(task.obs_shape, task.act_dim, config, seed),
+        learner=learner,
+        snapshots=snapshots_of(logger) if resumable else None,
+        keep={**(reward_state or {}), "average": average},
     )
     return average.policy(learner, task)

@@ -119,7 +119,7 @@ class Snapshots(Protocol):
 
     def replaying(self) -> AbstractContextManager[None]:
         """Env steps taken inside do not count against the budget: an env being brought back to
-        where it was when the snapshot was saved (`bench.rl.sac.Episode`) gains no experience."""
+        where it was when the snapshot was saved (`bench.rl.episodes.Episode`) gains no experience."""
 
 
 def snapshots_of(logger: Logger) -> Snapshots | None:

@@ -1,5 +1,5 @@
-"""Snapshots for real: an off-policy trial killed mid-run resumes from its last snapshot and
-ends exactly where it would have ended in one go (same machine, same seed)."""
+"""Snapshots for real: a trial killed mid-run resumes from its last snapshot and ends exactly
+where it would have ended in one go (same machine, same seed), off-policy and on."""
 
 import dataclasses
 import json
@@ -24,7 +24,7 @@ pytestmark = pytest.mark.usefixtures("demo_cache")
 
 
 def learning(folder) -> list:
-    """Snapshots saved after the learners' first update (at 300 steps)."""
+    """Snapshots saved past 300 env steps: after the learners' first updates."""
     saved = [json.loads(p.read_text()) for p in folder.glob("*.json")]
     return [p for p in saved if p["env_steps"] > 300]
 
@@ -34,14 +34,31 @@ def untimed(logs: dict) -> dict:
     return {k: v for k, v in logs.items() if not k.endswith("_s")}
 
 
-def test_a_killed_off_policy_trial_resumes_and_ends_as_if_never_stopped(tmp_path, bench_here):
+OFF_POLICY = "hidden: [16, 16], learning_starts: 300, batch_size: 32"
+ON_POLICY = "hidden: [16, 16], n_envs: 2, steps_per_env: 128"
+LEARNERS = {
     # gaifo-sac: a reward (D) with a state of its own; opolo: a learner of its own (TD3, M, D)
-    tiny = "hidden: [16, 16], learning_starts: 300, batch_size: 32"
+    "off-policy": (
+        1000,
+        f"[{{gaifo-sac: {{{OFF_POLICY}}}}}, {{opolo: {{{OFF_POLICY}, disc_hidden: [16, 16],"
+        " inverse_pretrain: 20, train_every: 100}}]",
+    ),
+    # gaifo: D and the policy average beside TRPO; tcn: an embedding trained before TRPO
+    "on-policy": (
+        10240,
+        f"[{{gaifo: {{{ON_POLICY}, disc_hidden: [16, 16]}}}},"
+        f" {{tcn: {{{ON_POLICY}, embed_steps: 50}}}}]",
+    ),
+}
+
+
+@pytest.mark.parametrize("optimizer", sorted(LEARNERS))
+def test_a_killed_trial_resumes_and_ends_as_if_never_stopped(optimizer, tmp_path, bench_here):
+    budget, algorithms = LEARNERS[optimizer]
     suite = tmp_path / "s.yaml"
     suite.write_text(
-        f"name: snap\nenvs: {{{PENDULUM}: {{budget: 1000}}}}\ndemos: [1]\nalgorithms:"
-        f" [{{gaifo-sac: {{{tiny}}}}}, {{opolo: {{{tiny}, disc_hidden: [16, 16],"
-        " inverse_pretrain: 20, train_every: 100}}]\nseeds: 1\neval_episodes: 2\n"
+        f"name: snap\nenvs: {{{PENDULUM}: {{budget: {budget}}}}}\ndemos: [1]\n"
+        f"algorithms: {algorithms}\nseeds: 1\neval_episodes: 2\n"
     )
     specs = expand(load_suite(suite))
     whole = tmp_path / "whole"
@@ -58,7 +75,7 @@ def test_a_killed_off_policy_trial_resumes_and_ends_as_if_never_stopped(tmp_path
     deadline = time.time() + 120
     while len(learning(cut / FOLDER)) < 2 and time.time() < deadline:
         time.sleep(0.05)
-    time.sleep(0.5)  # work past the snapshots, lost with the kill
+    time.sleep(0.3)  # work past the snapshots, lost with the kill
     os.killpg(proc.pid, signal.SIGKILL)  # driver and workers, mid-trial
     proc.wait()
     assert not list((cut / "trials").glob("*.json")), "the kill should land mid-trial"
@@ -75,8 +92,8 @@ def test_a_killed_off_policy_trial_resumes_and_ends_as_if_never_stopped(tmp_path
     resumed = {r.trial_id: r for r in store.scan(cut)}
     for one_go in store.scan(whole):
         again = resumed[one_go.trial_id]
-        assert again.resumed_at and 300 < again.resumed_at[0] < 1000  # updates under way
-        assert again.env_steps == one_go.env_steps == 1000
+        assert again.resumed_at and 300 < again.resumed_at[0] < budget  # updates under way
+        assert again.env_steps == one_go.env_steps == budget
         assert again.returns == one_go.returns
         assert again.curve == one_go.curve
         assert untimed(again.logs) == untimed(one_go.logs)

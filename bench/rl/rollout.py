@@ -14,6 +14,7 @@ import gymnasium as gym
 import numpy as np
 import torch
 
+from bench.rl.episodes import Episode
 from bench.rl.networks import GaussianPolicy, observation
 
 
@@ -94,10 +95,11 @@ class VecCollector:
 
     def __init__(self, envs: list[gym.Env], seed: int) -> None:
         self.envs = envs
-        first = [env.reset(seed=seed + i) for i, env in enumerate(envs)]
-        self.obs = observation(np.stack([o for o, _ in first]))
+        first = [Episode.begin(env, seed + i) for i, env in enumerate(envs)]
+        self.obs = observation(np.stack([o for o, _, _ in first]))
         filmed = "frames" in first[0][1]
-        self.frames = np.stack([info["frames"] for _, info in first]) if filmed else None
+        self.frames = np.stack([info["frames"] for _, info, _ in first]) if filmed else None
+        self.episodes = [episode for _, _, episode in first]
         self.t = np.zeros(len(envs), dtype=np.int64)
         self.ret = np.zeros(len(envs), dtype=np.float64)
         self.low = envs[0].action_space.low.astype(np.float32)
@@ -141,6 +143,7 @@ class VecCollector:
             clipped = np.clip(act_t, self.low, self.high)
             for i, env in enumerate(self.envs):
                 o, r, term, trunc, info = env.step(clipped[i])
+                self.episodes[i].actions.append(clipped[i])
                 next_obs[t, i] = o
                 if filmed:
                     next_frames[t, i] = info["frames"]
@@ -150,7 +153,7 @@ class VecCollector:
                 if term or trunc:
                     terminated[t, i], truncated[t, i] = term, trunc and not term
                     ep_returns.append(float(self.ret[i]))
-                    o, info = env.reset()
+                    o, info, self.episodes[i] = Episode.begin(env)
                     self.ret[i], self.t[i] = 0.0, 0
                 self.obs[i] = o
                 if filmed:
@@ -167,6 +170,28 @@ class VecCollector:
             frames if filmed else None,
             next_frames if filmed else None,
         )
+
+    def state_dict(self) -> dict:
+        """Where each env's episode stands (`Episode`), its step and return so far, and the
+        action noise's generator (tensors and plain numbers: weights_only-safe)."""
+        return {
+            "episodes": [episode.state() for episode in self.episodes],
+            "t": torch.from_numpy(self.t.copy()),
+            "ret": torch.from_numpy(self.ret.copy()),
+            "gen": self.gen.get_state(),
+        }
+
+    def load_state_dict(self, state: dict) -> None:
+        """Bring fresh envs (of the same seeds) to where the saved ones were, by replaying each
+        episode so far: their steps count again unless the caller stops the count."""
+        self.episodes = [Episode.of_state(e) for e in state["episodes"]]
+        for i, (env, episode) in enumerate(zip(self.envs, self.episodes, strict=True)):
+            o, info = episode.replay(env)
+            self.obs[i] = o
+            if self.frames is not None:
+                self.frames[i] = info["frames"]
+        self.t, self.ret = state["t"].numpy().copy(), state["ret"].numpy().copy()
+        self.gen.set_state(state["gen"])
 
     def close(self) -> None:
         for env in self.envs:

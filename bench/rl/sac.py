@@ -34,6 +34,7 @@ from torch import nn
 from bench.registry import Snapshots, added_later
 from bench.rl import stateful
 from bench.rl.absorbing import FLAG
+from bench.rl.episodes import Episode
 from bench.rl.networks import mlp
 
 
@@ -410,48 +411,6 @@ class OffPolicyLearner(Protocol):
     def load_state_dict(self, state: dict[str, Any]) -> None: ...
 
 
-@dataclass
-class Episode:
-    """How an env's current episode began and the actions taken in it since: enough to bring
-    a new env to the very state the old one was in, since PyBullet steps deterministically on
-    one machine (on another the replayed state may differ in the last bits, as any result
-    does there)."""
-
-    start: int | dict
-    """The seed of a seeded reset, or the env's random state just before an unseeded one."""
-    actions: list[np.ndarray]
-
-    @classmethod
-    def begin(cls, env: gym.Env, seed: int | None = None) -> tuple[np.ndarray, Episode]:
-        """Reset `env` (with `seed`, if given): its first observation and the new episode."""
-        start = seed if seed is not None else copy.deepcopy(rng_state(env))
-        return env.reset(seed=seed)[0], cls(start, [])
-
-    def replay(self, env: gym.Env) -> np.ndarray:
-        """Bring `env`, a fresh env of the same seed, to where this episode is; its observation."""
-        if isinstance(self.start, int):
-            obs = env.reset(seed=self.start)[0]
-        else:
-            env.unwrapped.np_random.bit_generator.state = self.start
-            obs = env.reset()[0]
-        for action in self.actions:
-            obs = env.step(action)[0]
-        return obs
-
-    def state(self) -> dict:
-        actions = np.asarray(self.actions, np.float32) if self.actions else np.zeros((0, 0))
-        return {"start": self.start, "actions": torch.from_numpy(actions.astype(np.float32))}
-
-    @classmethod
-    def of_state(cls, state: dict) -> Episode:
-        return cls(state["start"], list(state["actions"].numpy()))
-
-
-def rng_state(env: gym.Env) -> dict:
-    """The state of the random generator an env resets with."""
-    return env.unwrapped.np_random.bit_generator.state
-
-
 Callback = Callable[[int, SAC, dict[str, float]], None]
 """callback(env_steps_so_far, learner, last_update_info and seconds spent collecting and
 updating so far), every `report_every` env steps."""
@@ -480,8 +439,8 @@ def train(
     space = envs[0].action_space
     low, high = space.low.astype(np.float32), space.high.astype(np.float32)
     begun = [Episode.begin(env, seed * 1000 + i) for i, env in enumerate(envs)]
-    obs = np.stack([o for o, _ in begun]).astype(np.float32).reshape(len(envs), -1)
-    episodes = [episode for _, episode in begun]
+    obs = np.stack([o for o, _, _ in begun]).astype(np.float32).reshape(len(envs), -1)
+    episodes = [episode for _, _, episode in begun]
     learner = learner or SAC(obs.shape[1], len(low), low, high, cfg, seed)
     buffer = learner.buffer
     rng = np.random.default_rng(seed)
@@ -514,7 +473,9 @@ def train(
         torch.set_rng_state(resumed["torch_rng"])
         episodes = [Episode.of_state(e) for e in resumed["episodes"]]
         with snapshots.replaying():
-            obs = np.stack([np.ravel(e.replay(env)) for e, env in zip(episodes, envs, strict=True)])
+            obs = np.stack(
+                [np.ravel(e.replay(env)[0]) for e, env in zip(episodes, envs, strict=True)]
+            )
         obs = obs.astype(np.float32)
     try:
         while steps + len(envs) <= budget:
@@ -534,7 +495,7 @@ def train(
                 episodes[i].actions.append(actions[i])
                 next_obs[i], rewards[i], terminated[i] = np.ravel(o), r, term
                 if term or trunc:
-                    o, episodes[i] = Episode.begin(env)
+                    o, _, episodes[i] = Episode.begin(env)
                 obs[i] = np.ravel(o)
             rows = transitions_of_step(
                 before, actions, next_obs, rewards, terminated, cfg.absorbing

@@ -10,13 +10,16 @@ GAIL and TCN reuse this file unchanged.
 from __future__ import annotations
 
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
+from typing import Any
 
 import gymnasium as gym
 import numpy as np
 import torch
 
+from bench.registry import Snapshots
+from bench.rl import stateful
 from bench.rl.networks import ConvTrunk, GaussianPolicy, ObsShape, RunningNorm, ValueNet
 from bench.rl.rollout import Batch, RewardFn, Rewards, VecCollector
 from bench.validate import above, at_least
@@ -248,6 +251,13 @@ class TRPO:
         self.return_norm.load_state_dict(state["return_norm"])
         discounted = state["discounted"]
         self.discounted = None if discounted is None else discounted.numpy().copy()
+        # A policy step leaves the head's weights as views into one flat vector
+        # (`vector_to_parameters`), and a product with weights at those offsets rounds
+        # differently from one with weights of their own: laid out alike, a loaded learner
+        # computes the very numbers the saved one would have.
+        head = [p for p in self.policy.head_parameters() if p.requires_grad]
+        with torch.no_grad():
+            torch.nn.utils.vector_to_parameters(torch.nn.utils.parameters_to_vector(head), head)
 
     def reward_scale(
         self, rewards: np.ndarray, ends: np.ndarray, final: np.ndarray | None = None
@@ -331,11 +341,19 @@ def train(
     reward_fn: RewardFn | None = None,
     callback: Callback | None = None,
     learner: TRPO | None = None,
+    snapshots: Snapshots | None = None,
+    keep: Mapping[str, Any] | None = None,
 ) -> TRPO:
     """Run TRPO for at most `budget` env steps (whole batches only) and return the learner.
 
     Pass `learner` to train one built beforehand (e.g. so a discriminator can
     share its observation normalizer); its config then overrides `cfg`.
+
+    With `snapshots`, it saves everything when one is due and, where the trial resumes, starts
+    from the last one: the learner, the envs (each episode replayed), the random states, and
+    `keep`: what else learns along (a discriminator, its optimizer and generator, a policy
+    average), as `bench.rl.stateful` saves them. On the same machine it returns the very
+    learner a run in one go returns, provided `keep` holds all that changes besides.
     """
     cfg = learner.cfg if learner is not None else cfg or TRPOConfig()
     if budget < cfg.batch_size:
@@ -348,7 +366,16 @@ def train(
     act_dim = int(np.prod(envs[0].action_space.shape))
     learner = learner or TRPO(obs_dim, act_dim, cfg, seed)
     collector = VecCollector(envs, seed * 1000)
+    keep = keep or {}
     steps = 0
+    resumed = snapshots.load() if snapshots is not None else None
+    if resumed is not None:
+        learner.load_state_dict(resumed["learner"])
+        stateful.load_into(keep, resumed["keep"])
+        with snapshots.replaying():
+            collector.load_state_dict(resumed["collector"])
+        steps = resumed["steps"]
+        torch.set_rng_state(resumed["torch_rng"])
     try:
         while steps + cfg.batch_size <= budget:
             t0 = time.perf_counter()
@@ -361,6 +388,16 @@ def train(
             info.update(collect_s=t1 - t0, update_s=time.perf_counter() - t1)
             if callback is not None:
                 callback(steps, learner, batch, info)
+            if snapshots is not None and snapshots.due() and steps + cfg.batch_size <= budget:
+                snapshots.save(
+                    {
+                        "learner": learner.state_dict(),
+                        "keep": stateful.state_of(keep),
+                        "collector": collector.state_dict(),
+                        "steps": steps,
+                        "torch_rng": torch.get_rng_state(),
+                    }
+                )
     finally:
         collector.close()
     return learner
