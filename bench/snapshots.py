@@ -2,9 +2,9 @@
 session that ends, a preempted cluster job, a killed run) resumes from its last snapshot
 instead of from scratch.
 
-An algorithm opts in (the off-policy learners do: `bench.rl.sac.train`); the runner gives each
-trial a file under `<results dir>/.partial/` and removes it once the trial's record is
-written. A snapshot is one `torch.save` file, written atomically, read back with
+An algorithm opts in (every built-in one does: `bench.rl.trpo.train`, `bench.rl.sac.train`,
+BCO's loop); the runner gives each trial a file under `<results dir>/.partial/` and removes
+it once the trial's record is written. A snapshot is one `torch.save` file, written atomically, read back with
 `weights_only=True`; beside it a small JSON says how far the trial got, which the runner
 reads to price what a resumed trial has left without loading the snapshot itself.
 """

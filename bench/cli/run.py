@@ -167,8 +167,8 @@ def add(sub: argparse._SubParsersAction) -> None:
         type=duration,
         default=10 * 60,
         metavar="DURATION",
-        help="how often a trial whose algorithm supports it (the off-policy learners) saves its"
-        " state under RESULTS/.partial/, to resume from if the run is cut off (default 10m)",
+        help="how often a trial (of any built-in algorithm) saves its state under"
+        " RESULTS/.partial/, to resume from if the run is cut off (default 10m)",
     )
     run.add_argument(
         "--backend",
