@@ -49,9 +49,7 @@ LEARNERS = {
         f"[{{gaifo: {{{ON_POLICY}, disc_hidden: [16, 16]}}}},"
         f" {{tcn: {{{ON_POLICY}, embed_steps: 50}}}}]",
     ),
-    # bco: an inverse model and the agent's own data, grown each iteration. Not exact: its
-    # normalizers reduce over arrays that lie elsewhere in a new process's memory, and the
-    # rounding of a reduction depends on that (last bits), so only what came before is.
+    # bco: an inverse model and the agent's own data, grown each iteration; float64 actions
     "bco": (
         6000,
         "[{bco: {pre_demo_steps: 1000, alpha: 0.25, n_envs: 2, inverse_steps: 50,"
@@ -103,17 +101,6 @@ def test_a_killed_trial_resumes_and_ends_as_if_never_stopped(optimizer, tmp_path
         again = resumed[one_go.trial_id]
         assert again.resumed_at and 300 < again.resumed_at[0] < budget  # updates under way
         assert again.env_steps == one_go.env_steps == budget
-        if one_go.spec.algorithm == "bco":
-            before = sum(step <= again.resumed_at[0] for step in one_go.logs["env_steps"])
-            assert {k: v[:before] for k, v in untimed(again.logs).items()} == {
-                k: v[:before] for k, v in untimed(one_go.logs).items()
-            }
-            at = again.resumed_at[0]
-            assert [p for p in again.curve if p.env_steps <= at] == [
-                p for p in one_go.curve if p.env_steps <= at
-            ]
-            assert again.status == "ok" and again.returns
-            continue
         assert again.returns == one_go.returns
         assert again.curve == one_go.curve
         assert untimed(again.logs) == untimed(one_go.logs)

@@ -43,9 +43,10 @@ class Episode:
         return obs, info
 
     def state(self) -> dict:
-        """As tensors and plain numbers (weights_only-safe)."""
-        actions = np.asarray(self.actions, np.float32) if self.actions else np.zeros((0, 0))
-        return {"start": self.start, "actions": torch.from_numpy(actions.astype(np.float32))}
+        """As tensors and plain numbers (weights_only-safe). Actions keep their dtype: a
+        float64 action rounded to float32 would step the env elsewhere."""
+        actions = np.asarray(self.actions) if self.actions else np.zeros((0, 0), np.float32)
+        return {"start": self.start, "actions": torch.from_numpy(actions)}
 
     @classmethod
     def of_state(cls, state: dict) -> Episode:
