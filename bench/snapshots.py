@@ -74,7 +74,9 @@ class SnapshotPlan:
         return {path.stem for path in self.folder.glob("*.pt")}
 
     def discard(self, trial_id: str) -> None:
-        """Remove the trial's snapshot (its record is written: nothing to resume)."""
-        for path in (self.progress_path(trial_id), self.path(trial_id)):
+        """Remove the trial's snapshot (its record is written: nothing to resume), and what a
+        run killed while writing one left of it (`bench.atomic`'s temp files)."""
+        leftovers = self.folder.glob(f"{trial_id}.*.tmp")
+        for path in (self.progress_path(trial_id), self.path(trial_id), *leftovers):
             with contextlib.suppress(FileNotFoundError):
                 path.unlink()

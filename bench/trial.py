@@ -35,6 +35,10 @@ EVAL_SEED = 100_000
 """Evaluation episodes of seed s start at env seed EVAL_SEED + 1000 s: the same for every algorithm."""
 
 
+SNAPSHOT_FORMAT = 1
+"""The layout of a trial's snapshot (`TrialSnapshots`); a snapshot of another is not resumed."""
+
+
 class BudgetExceeded(RuntimeError):
     pass
 
@@ -129,14 +133,14 @@ class TrialSnapshots:
             "spent_s": self.spent(),
             "resumed_at": self.resumed_at,
         }
-        payload = {"format": 1, "trial": trial, "algorithm": state}
+        payload = {"format": SNAPSHOT_FORMAT, "trial": trial, "algorithm": state}
         self.plan.write(self.spec.trial_id, payload, self.tally.steps, self.spec.budget)
         self._last = time.monotonic()
 
     def load(self) -> dict[str, Any] | None:
         payload = self.plan.read(self.spec.trial_id)
-        if payload is None:
-            return None
+        if payload is None or payload.get("format") != SNAPSHOT_FORMAT:
+            return None  # none, or one of another layout: start afresh and overwrite it
         trial = payload["trial"]
         self.tally.steps = trial["env_steps"]
         self.logger.curve = [CurvePoint(int(s), float(r)) for s, r in trial["curve"]]

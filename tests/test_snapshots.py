@@ -92,10 +92,12 @@ def test_a_killed_trial_resumes_and_ends_as_if_never_stopped(optimizer, tmp_path
     assert f"{len(specs)} of them resume from a snapshot" in out.stdout, out.stdout
     out = bench_here("run", str(suite), "--results", str(cut), "--jobs", "2")
     assert out.returncode == 0, out.stderr
-    assert not list((cut / FOLDER).iterdir())  # a written record ends its snapshot
+    assert not list((cut / FOLDER).iterdir())  # a written record ends its snapshot, leftovers too
     left = SnapshotPlan.of(cut)  # as if a run were killed between a record and its removal
     left.write(specs[0].trial_id, {"stale": True}, env_steps=500, budget=1000)
+    (cut / FOLDER / f"{specs[0].trial_id}.pt.x1y2.tmp").write_bytes(b"cut off mid-write")
     assert run_suite(specs, cut, progress=False).skipped == len(specs) and not left.saved()
+    assert not list((cut / FOLDER).iterdir())
     resumed = {r.trial_id: r for r in store.scan(cut)}
     for one_go in store.scan(whole):
         again = resumed[one_go.trial_id]
