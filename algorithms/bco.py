@@ -208,13 +208,15 @@ def train(
 
         return sample
 
+    inverse_parts = {"model": model, "opt": model_opt, "gen": gen}
+
     def snapshot() -> dict:
         """All that carries from one iteration to the next; the policy does not (each
         iteration clones a fresh one). M's data go as one chunk: it is only ever stacked."""
         return {
             "steps": steps,
             "iteration": iteration,
-            "inverse": stateful.state_of({"model": model, "opt": model_opt, "gen": gen}),
+            "inverse": stateful.state_of(inverse_parts),
             "data": [list(stacked(parts)) for parts in (train_data, val_data)],
             "rollouts": rollouts.state_dict(),
             "rng": rng.bit_generator.state,
@@ -232,7 +234,7 @@ def train(
             steps, iteration = collect(uniform, cfg.pre_demo_steps), 0  # pre-demonstration phase
         else:
             steps, iteration = resumed["steps"], resumed["iteration"]
-            stateful.load_into({"model": model, "opt": model_opt, "gen": gen}, resumed["inverse"])
+            stateful.load_into(inverse_parts, resumed["inverse"])
             for kept, saved in zip((train_data, val_data), resumed["data"], strict=True):
                 kept.append(tuple(x.numpy() for x in saved))
             with snapshots.replaying():

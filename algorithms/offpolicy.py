@@ -100,7 +100,7 @@ def uniform(shape: tuple[int, ...], gen: torch.Generator, device: torch.device) 
     return torch.rand(shape, generator=gen).to(device)
 
 
-class CurrentDReward:
+class CurrentDReward(stateful.Stateful):
     """The critic's reward hook: for each replay minibatch, one Adam step of D on it against
     as many expert transitions, then D's reward for that minibatch from D as it is after the
     step, with D's diagnostics to log."""
@@ -145,12 +145,6 @@ class CurrentDReward:
 
     def parts(self) -> dict[str, Any]:
         return {"disc": self.disc, "opt": self.opt, "gen": self.gen}
-
-    def state_dict(self) -> dict[str, Any]:
-        return stateful.state_of(self.parts())
-
-    def load_state_dict(self, state: dict[str, Any]) -> None:
-        stateful.load_into(self.parts(), state)
 
 
 def train_offpolicy_adversarial(

@@ -125,7 +125,7 @@ class InverseModel(nn.Module):
         return self.net(normalized_pair(self.norm, batch))
 
 
-class OPOLO:
+class OPOLO(stateful.Stateful):
     """TD3 on D's reward with the dual term and the inverse-model regularizer; the loop is
     SAC's (`bench.rl.sac.train`), which calls `explore` and `update`."""
 
@@ -169,10 +169,10 @@ class OPOLO:
         return {name: getattr(self, name) for name in (*networks, *optimizers, "buffer", "gen")}
 
     def state_dict(self) -> dict[str, Any]:
-        return {**stateful.state_of(self.parts()), "updates": self.updates, "stats": self.stats}
+        return {**super().state_dict(), "updates": self.updates, "stats": self.stats}
 
     def load_state_dict(self, state: dict[str, Any]) -> None:
-        stateful.load_into(self.parts(), state)
+        super().load_state_dict(state)
         self.updates, self.stats = state["updates"], dict(state["stats"])
 
     # ------------------------------------------------------------ acting and rewards

@@ -115,7 +115,7 @@ def run_suite(
     others = [] if priced_by is None else store.scan_under(priced_by, besides=results_dir)
     costs = CostModel.of(itertools.chain(records, others))
     if snapshot_plan is not None:
-        costs.done_before = {s.trial_id: snapshot_plan.done_fraction(s.trial_id) for s in todo}
+        costs.done_before = snapshot_plan.done_before(todo)
     plans = [plan(s) for s in todo]
     sources = {
         (p.spec.env_id, p.spec.dataset or "", p.filmed)

@@ -14,6 +14,7 @@ from __future__ import annotations
 import contextlib
 import io
 import json
+from collections.abc import Iterable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -21,6 +22,7 @@ from typing import Any
 import torch
 
 from bench import atomic
+from bench.types import TrialSpec
 
 FOLDER = ".partial"
 """Snapshots' folder in a results folder (hidden: it holds no records)."""
@@ -60,6 +62,10 @@ class SnapshotPlan:
         if not path.is_file():
             return None
         return torch.load(path, map_location="cpu", weights_only=True)
+
+    def done_before(self, specs: Iterable[TrialSpec]) -> dict[str, float]:
+        """Trial id -> `done_fraction`, for `costs.CostModel.done_before`."""
+        return {spec.trial_id: self.done_fraction(spec.trial_id) for spec in specs}
 
     def done_fraction(self, trial_id: str) -> float:
         """How much of its budget the trial's last snapshot has behind it (0: none)."""

@@ -116,7 +116,7 @@ def test_a_cut_off_trial_is_priced_at_what_its_snapshot_leaves(tmp_path):
     todo = [dataclasses.replace(spec, seed=seed) for seed in (1, 2)]
     plan = SnapshotPlan.of(tmp_path)
     plan.write(todo[0].trial_id, {"anything": 1}, env_steps=750, budget=1000)
-    done_before = {s.trial_id: plan.done_fraction(s.trial_id) for s in todo}
+    done_before = plan.done_before(todo)
     assert done_before == {todo[0].trial_id: 0.75, todo[1].trial_id: 0.0}
     (row,) = estimate(todo, records, done_before)
     assert row.seconds == pytest.approx((25.0 + 100.0) / 2)

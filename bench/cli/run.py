@@ -74,8 +74,7 @@ def _estimate(specs: list, results: Path, jobs: int) -> int:
 
     finished = {r.trial_id: r.status for r in store.scan(results)}
     todo = pending(specs, finished, retry_failed=False)
-    snapshots = SnapshotPlan.of(results)
-    done_before = {s.trial_id: snapshots.done_fraction(s.trial_id) for s in todo}
+    done_before = SnapshotPlan.of(results).done_before(todo)
     rows = estimate(todo, store.scan_under(results.parent), done_before)
     print(f"{len(todo)} of {len(specs)} trials pending -> {results}/")
     width = max([36, *(len(r.env_id) for r in rows)])

@@ -289,7 +289,7 @@ SACRewardFn = Callable[[ReplayBatch], "torch.Tensor | Logged"]
 `Logged` rewards."""
 
 
-class SAC:
+class SAC(stateful.Stateful):
     def __init__(self, obs_dim: int, act_dim: int, low, high, cfg: SACConfig, seed: int) -> None:
         torch.manual_seed(seed)  # built on the CPU and then moved: the same weights anywhere
         self.cfg, self.act_dim, self.device = cfg, act_dim, usable_device(cfg.device)
@@ -315,12 +315,6 @@ class SAC:
         names = ("actor", "critic", "target", "log_alpha", "buffer")
         optimizers = ("actor_opt", "critic_opt", "alpha_opt")
         return {name: getattr(self, name) for name in (*names, *optimizers)}
-
-    def state_dict(self) -> dict[str, Any]:
-        return stateful.state_of(self.parts())
-
-    def load_state_dict(self, state: dict[str, Any]) -> None:
-        stateful.load_into(self.parts(), state)
 
     def explore(self, obs: torch.Tensor) -> torch.Tensor:
         """Actions to collect with: samples of the squashed Gaussian."""
@@ -454,7 +448,7 @@ def train(
         loop = {"steps": steps, "owed": owed, "info": info, "next_report": next_report}
         return {
             "learner": learner.state_dict(),
-            **{name: part.state_dict() for name, part in extra.items()},
+            **stateful.state_of(extra),
             "loop": {**loop, "clock": clock},
             "rng": rng.bit_generator.state,
             "torch_rng": torch.get_rng_state(),
@@ -464,8 +458,7 @@ def train(
     resumed = snapshots.load() if snapshots is not None else None
     if resumed is not None:
         learner.load_state_dict(resumed["learner"])
-        for name, part in extra.items():
-            part.load_state_dict(resumed[name])
+        stateful.load_into(extra, resumed)
         loop = resumed["loop"]
         steps, owed, info = loop["steps"], loop["owed"], loop["info"]
         next_report, clock = loop["next_report"], loop["clock"]

@@ -34,3 +34,16 @@ def load_into(parts: Mapping[str, Any], state: Mapping[str, Any]) -> None:
                 part.copy_(state[name])
         else:
             part.load_state_dict(state[name])
+
+
+class Stateful:
+    """`state_dict` and `load_state_dict` of an object from its `parts()`, as named above."""
+
+    def parts(self) -> dict[str, Any]:
+        raise NotImplementedError
+
+    def state_dict(self) -> dict[str, Any]:
+        return state_of(self.parts())
+
+    def load_state_dict(self, state: dict[str, Any]) -> None:
+        load_into(self.parts(), state)
