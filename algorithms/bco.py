@@ -159,6 +159,7 @@ def clone(
     "bco",
     config=BCOConfig,
     inputs="states",
+    resumable=True,
     description="BCO(alpha): inverse dynamics labels the demos, then behavioral cloning",
     min_budget=lambda config: config.pre_demo_steps,
 )

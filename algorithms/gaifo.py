@@ -19,6 +19,7 @@ def state_transition(s: torch.Tensor, a: torch.Tensor, s_next: torch.Tensor) -> 
     "gaifo",
     config=AdversarialConfig,
     inputs="states",
+    resumable=True,
     description="GAIfO: discriminator on (s, s')",
     pixels=True,
     video_reward=True,

@@ -19,6 +19,7 @@ def state_action(s: torch.Tensor, a: torch.Tensor, s_next: torch.Tensor) -> torc
     "gail",
     config=AdversarialConfig,
     inputs="actions",
+    resumable=True,
     description="GAIL: discriminator on (s, a)",
     pixels=True,
     video_reward=True,

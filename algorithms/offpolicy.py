@@ -199,6 +199,7 @@ def train_on_reward(
     "gaifo-sac",
     config=OffPolicyAdversarialConfig,
     inputs="states",
+    resumable=True,
     description="GAIfO on SAC with absorbing states (DACfO): D on (s, s')",
     min_budget=sac_budget,
 )
@@ -212,6 +213,7 @@ def train_gaifo(task: Task, demos: Demos, budget: int, seed: int, logger: Logger
     "gail-sac",
     config=OffPolicyAdversarialConfig,
     inputs="actions",
+    resumable=True,
     description="GAIL on SAC with absorbing states (DAC): D on (s, a)",
     min_budget=sac_budget,
 )
@@ -227,6 +229,7 @@ def train_gail(
     "survival-sac",
     config=OffPolicyConfig,
     inputs="none",
+    resumable=True,
     description="control: SAC on +1 per step alive, no demos",
     min_budget=sac_budget,
 )
@@ -239,6 +242,7 @@ def train_survival(task: Task, demos: None, budget: int, seed: int, logger: Logg
     "oracle-sac",
     config=OffPolicyConfig,
     inputs="none",
+    resumable=True,
     description="control: SAC on the env's reward, no demos",
     min_budget=sac_budget,
 )

@@ -281,6 +281,7 @@ class OPOLO(stateful.Stateful):
     "opolo",
     config=OPOLOConfig,
     inputs="states",
+    resumable=True,
     description="OPOLO: off-policy GAIfO on TD3, dual form, inverse-action regularizer",
     min_budget=sac_budget,
 )

@@ -16,6 +16,7 @@ from bench.registry import Logger, Policy, Task, register
     "oracle",
     config=ImitationTRPOConfig,
     inputs="none",
+    resumable=True,
     description="control: TRPO on the env's reward, no demos",
     pixels=True,
     min_budget=one_batch,

@@ -14,6 +14,7 @@ from bench.registry import Logger, Policy, Task, register
     "survival",
     config=ImitationTRPOConfig,
     inputs="none",
+    resumable=True,
     description="control: TRPO on +1 per step, no demos",
     pixels=True,
     min_budget=one_batch,

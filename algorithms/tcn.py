@@ -159,6 +159,7 @@ def demo_targets(embed: Embedding, demos: Demos) -> torch.Tensor:
     "tcn",
     config=TCNConfig,
     inputs="states",
+    resumable=True,
     description="TCN: TRPO on distance to the demos in a time-contrastive embedding",
     pixels=True,
     video_reward=True,

@@ -167,17 +167,39 @@ def estimate(
 
 @dataclass(frozen=True)
 class TimeLimit:
-    """A wall-clock end for a run: a trial starts only if its expected seconds fit in what is
-    left, so none is cut off, and a run on a cluster's wall-clock allowance or in a session that
-    ends loses no work. A trial with nothing to go by never fits."""
+    """A wall-clock end for a run, so that a run on a cluster's wall-clock allowance or in a
+    session that ends loses no work: a trial fits if its expected seconds fit in what is left
+    (one with nothing to go by never fits). The runner starts the trials that fit and, where
+    snapshots are on, resumable ones that do not, which pause at the deadline."""
 
     deadline: float
     """On `clock`'s scale."""
     clock: Callable[[], float] = time.monotonic
+    pause_floor_s: float = 300.0
+    """The least time left for which a trial that will not finish is still started, to pause at
+    the deadline: with less, its start and its snapshot would be most of what it did."""
 
     @classmethod
-    def starting_now(cls, limit: float, clock: Callable[[], float] = time.monotonic) -> TimeLimit:
-        return cls(clock() + limit, clock)
+    def starting_now(
+        cls,
+        limit: float,
+        clock: Callable[[], float] = time.monotonic,
+        pause_floor_s: float = 300.0,
+    ) -> TimeLimit:
+        return cls(clock() + limit, clock, pause_floor_s)
 
     def fits(self, expected: float | None) -> bool:
         return expected is not None and self.clock() + expected <= self.deadline
+
+    def left(self) -> float:
+        """Seconds to the deadline (negative past it)."""
+        return self.deadline - self.clock()
+
+    def worth_pausing(self) -> bool:
+        """Whether a trial that will not finish is still worth starting, to pause at the
+        deadline."""
+        return self.left() >= self.pause_floor_s
+
+    def wall_deadline(self) -> float:
+        """The deadline as a `time.time()`, which workers in other processes can read."""
+        return time.time() + self.left()

@@ -111,7 +111,10 @@ class Snapshots(Protocol):
         """Whether a snapshot should be saved now (every ~10 min of training)."""
 
     def save(self, state: dict[str, Any]) -> None:
-        """Keep `state` (tensors, numbers, strings, and lists and dicts of them) to resume from."""
+        """Keep `state` (tensors, numbers, strings, and lists and dicts of them) to resume from.
+        Past the run's time limit (`bench run --time-limit`), `due` is always true and `save`
+        then ends the trial by raising `TrialPaused`: let it through, and the next run resumes
+        the trial from this snapshot."""
 
     def load(self) -> dict[str, Any] | None:
         """The state last saved, where this trial resumes after an interruption; else None.
@@ -167,6 +170,10 @@ class Algorithm:
     min_budget: Callable[[Any], int] | None = None
     """min_budget(config) -> the fewest env steps a trial can train with (e.g. one TRPO batch);
     a suite that gives less is refused at load."""
+    resumable: bool = False
+    """Its trials save snapshots where the runner offers them (`Snapshots`) and resume from
+    them, so a run under a time limit may start one that will not finish by then: it pauses at
+    the limit, and the next run goes on from there."""
 
     @property
     def uses_actions(self) -> bool:
@@ -203,6 +210,7 @@ def register(
     pixels: bool = False,
     video_reward: bool = False,
     min_budget: Callable[[Any], int] | None = None,
+    resumable: bool = False,
 ) -> Callable[[TrainFn], TrainFn]:
     """Decorator: register `train` under `name`."""
     if inputs not in ("none", "states", "actions", "expert"):
@@ -219,7 +227,7 @@ def register(
                 f"{_origin(train)}; rename one"
             )
         _ALGORITHMS[name] = Algorithm(
-            name, train, config, inputs, doc, pixels, video_reward, min_budget
+            name, train, config, inputs, doc, pixels, video_reward, min_budget, resumable
         )
         return train
 

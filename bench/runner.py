@@ -34,6 +34,8 @@ class RunSummary:
     skipped: int
     left: int = 0
     """Pending trials not started: under a time limit, those that would not have fit."""
+    paused: int = 0
+    """Trials stopped at the time limit, each kept as a snapshot to resume from."""
 
 
 def pending(specs: list[TrialSpec], have: dict[str, str], retry_failed: bool) -> list[TrialSpec]:
@@ -56,24 +58,30 @@ def _jobs(
 ) -> Iterator:
     """The trials as joblib calls: those of the algorithms `first` (names or labels) before the
     others; within each group, kinds with nothing to go by first (to learn their cost), then
-    the dearest, so the last to finish are short. Under a time `limit`, only those that still
-    fit as each starts (so never an unpriced one): the dearest that fits, and none once none
-    does."""
+    the dearest, so the last to finish are short. Under a time `limit`, those that still fit as
+    each starts, the dearest first (never an unpriced one); once none does, those that can pause
+    at the limit (`registry.Algorithm.resumable`, with a `snapshot_plan`) while that is worth
+    it (`TimeLimit.worth_pausing`); then none."""
 
     first = set(first)
 
     def order(spec: TrialSpec) -> tuple:
         return (bool({spec.algorithm, spec.shown} & first), *costs.priority(spec))
 
+    def pausable(spec: TrialSpec) -> bool:
+        return snapshot_plan is not None and plan(spec).algorithm.resumable
+
     remaining = list(specs)
     while remaining:  # a generator: the next trial is chosen (and loaded) as a worker frees up
         if limit is None:
-            fitting = remaining
+            startable = remaining
         else:
-            fitting = [s for s in remaining if limit.fits(costs.seconds(s))]
-        if not fitting:
+            startable = [s for s in remaining if limit.fits(costs.seconds(s))]
+            if not startable and limit.worth_pausing():
+                startable = [s for s in remaining if pausable(s)]
+        if not startable:
             return
-        spec = max(fitting, key=order)  # first of equals: suite order
+        spec = max(startable, key=order)  # first of equals: suite order
         remaining.remove(spec)
         yield joblib.delayed(run_trial)(spec, plan(spec).inputs(), tensorboard, snapshot_plan)
 
@@ -96,17 +104,20 @@ def run_suite(
     `tensorboard`, each trial's scalars go there live as TensorBoard events. The trials of
     the algorithms `first` (names or labels) start before the others'. Trials are priced by the
     records of every results folder under `priced_by` (default: `results_dir`'s own), read
-    only when something is pending, and by each trial as it finishes; under a time `limit`, a
-    trial starts only if it is expected to finish in time, and the rest are left pending.
-    Trials whose algorithm takes snapshots save one every `snapshot_every` seconds under
-    `<results_dir>/.partial/` (None: never) and resume from it after an interruption."""
+    only when something is pending, and by each trial as it finishes. Trials whose algorithm
+    takes snapshots save one every `snapshot_every` seconds under `<results_dir>/.partial/`
+    (None: never) and resume from it after an interruption. Under a time `limit`, a trial starts
+    if it is expected to finish in time or, with snapshots, if it can pause at the limit (see
+    `_jobs`); at the limit every trial in flight that takes snapshots saves one and stops, and
+    the rest are left pending."""
     records = list(store.scan(results_dir))
     have = {r.trial_id: r.status for r in records}
     todo = pending(specs, have, retry_failed)
     skipped = len(specs) - len(todo)
     snapshot_plan = None
     if snapshot_every is not None:
-        snapshot_plan = SnapshotPlan.of(results_dir, snapshot_every)
+        stop_at = None if limit is None else limit.wall_deadline()
+        snapshot_plan = SnapshotPlan.of(results_dir, snapshot_every, stop_at)
         finished = {trial_id for trial_id, status in have.items() if status == "ok"}
         for trial_id in snapshot_plan.saved() & finished:  # a run killed as a record landed
             snapshot_plan.discard(trial_id)
@@ -124,7 +135,7 @@ def run_suite(
     }
     for env_id, dataset, filmed in sources:  # demo pools made once, before forking
         demo_pool(env_id, dataset or None, filmed)
-    done = failed = 0
+    done = failed = paused = 0
     bar = tqdm(
         total=len(todo), desc="trials", unit="trial", disable=not progress, dynamic_ncols=True
     )
@@ -152,15 +163,18 @@ def run_suite(
             trials = _jobs(todo, costs, tensorboard, first, limit, snapshot_plan)
             for result in parallel(trials):
                 del unfinished[result.trial_id]
-                if result.policy is not None:  # before the record: a record implies its policy
-                    policies.write(results_dir, result.trial_id, result.policy)
-                store.write(results_dir, result)
-                if snapshot_plan is not None:  # a record (ok or failed) ends the trial
-                    snapshot_plan.discard(result.trial_id)
-                costs.observe(result)
+                if result.status == "paused":  # no record: its snapshot is what is kept
+                    paused += 1
+                else:
+                    if result.policy is not None:  # before the record: it implies its policy
+                        policies.write(results_dir, result.trial_id, result.policy)
+                    store.write(results_dir, result)
+                    if snapshot_plan is not None:  # a record (ok or failed) ends the trial
+                        snapshot_plan.discard(result.trial_id)
+                    costs.observe(result)
                 if result.status == "ok":
                     done += 1
-                else:
+                elif result.status == "failed":
                     failed += 1
                     last = (result.traceback or "").strip().splitlines()[-1:] or ["?"]
                     bar.write(
@@ -168,11 +182,12 @@ def run_suite(
                     )
                 bar.update(1)
                 # "left" counts the trials in flight in full: an upper bound.
-                bar.set_postfix(
-                    done=done, failed=failed, left=costs.time_left(unfinished.values(), workers)
-                )
+                left = costs.time_left(unfinished.values(), workers)
+                counts = {"done": done, "failed": failed} | ({"paused": paused} if paused else {})
+                bar.set_postfix(**counts, left=left)
     finally:
         bar.close()
         if client is not None:
             client.close()
-    return RunSummary(done, failed, skipped, left=len(todo) - done - failed)
+    left = len(todo) - done - failed - paused
+    return RunSummary(done, failed, skipped, left=left, paused=paused)

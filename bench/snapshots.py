@@ -14,6 +14,7 @@ from __future__ import annotations
 import contextlib
 import io
 import json
+import time
 from collections.abc import Iterable
 from dataclasses import dataclass
 from pathlib import Path
@@ -30,16 +31,31 @@ EVERY_S = 600.0
 """Default seconds between two snapshots of a trial: at most ~10 min of work lost."""
 
 
+class TrialPaused(Exception):
+    """Raised by a trial's snapshot save past its run's `stop_at`: the trial stops there, its
+    snapshot kept, and the next run resumes it."""
+
+
 @dataclass(frozen=True)
 class SnapshotPlan:
-    """Where a run keeps its trials' snapshots and how often: shipped to each worker."""
+    """Where a run keeps its trials' snapshots, how often, and until when: shipped to each
+    worker."""
 
     folder: Path
     every_s: float = EVERY_S
+    stop_at: float | None = None
+    """Wall-clock time (`time.time()`) past which each trial in flight saves a snapshot at its
+    next chance and stops (the run's time limit); None: trials run to the end."""
 
     @classmethod
-    def of(cls, results_dir: str | Path, every_s: float = EVERY_S) -> SnapshotPlan:
-        return cls(Path(results_dir) / FOLDER, every_s)
+    def of(
+        cls, results_dir: str | Path, every_s: float = EVERY_S, stop_at: float | None = None
+    ) -> SnapshotPlan:
+        return cls(Path(results_dir) / FOLDER, every_s, stop_at)
+
+    def stopping(self) -> bool:
+        """Whether the run's time limit has passed: trials should save and stop."""
+        return self.stop_at is not None and time.time() >= self.stop_at
 
     def path(self, trial_id: str) -> Path:
         return self.folder / f"{trial_id}.pt"

@@ -24,7 +24,7 @@ import torch
 from bench import demos, envs, experts, minari_io, policies, registry, state_match
 from bench.pixels import PixelConfig, VideoBeside
 from bench.rl.rollout import evaluate
-from bench.snapshots import SnapshotPlan
+from bench.snapshots import SnapshotPlan, TrialPaused
 from bench.types import CurvePoint, TrialResult, TrialSpec
 
 CURVE_POINTS = 10
@@ -122,7 +122,7 @@ class TrialSnapshots:
         return self.spent_before + time.time() - self.started
 
     def due(self) -> bool:
-        return time.monotonic() - self._last >= self.plan.every_s
+        return self.plan.stopping() or time.monotonic() - self._last >= self.plan.every_s
 
     def save(self, state: dict[str, Any]) -> None:
         trial = {
@@ -136,6 +136,8 @@ class TrialSnapshots:
         payload = {"format": SNAPSHOT_FORMAT, "trial": trial, "algorithm": state}
         self.plan.write(self.spec.trial_id, payload, self.tally.steps, self.spec.budget)
         self._last = time.monotonic()
+        if self.plan.stopping():
+            raise TrialPaused(f"paused at the time limit after {self.tally.steps} env steps")
 
     def load(self) -> dict[str, Any] | None:
         payload = self.plan.read(self.spec.trial_id)
@@ -278,7 +280,9 @@ def run_trial(
     """Train `spec.algorithm` and evaluate it; never raises (a failure is a failed record).
     With `tensorboard`, every scalar it logs is also written there as it comes (`event_dir`).
     With `snapshots`, an algorithm that takes them saves its state there as it trains and
-    resumes from it, where an earlier run of this trial was cut off."""
+    resumes from it, where an earlier run of this trial was cut off; past the plan's `stop_at`
+    it saves and stops, and the result's status is "paused" (no record: the trial is not
+    over)."""
     torch.set_num_threads(1)  # joblib workers share the cores: one thread each
     start = time.time()
     tally = StepTally()
@@ -310,6 +314,8 @@ def run_trial(
         if not np.all(np.isfinite(returns)):
             raise FloatingPointError("evaluation returned a non-finite return")
         status, tb = "ok", None
+    except TrialPaused:  # at its run's time limit, its snapshot saved: the next run goes on
+        returns, status, tb = [], "paused", None
     except Exception:
         returns, status, tb = [], "failed", traceback.format_exc()
     finally:

@@ -138,7 +138,8 @@ class TrialResult:
 
     spec: TrialSpec
     status: str
-    """"ok" or "failed"."""
+    """"ok" or "failed"; "paused" for a trial stopped at its run's time limit, which the
+    runner does not write (its snapshot is what is kept)."""
     returns: list[float]
     """Undiscounted return of each evaluation episode (empty when failed)."""
     curve: list[CurvePoint]

@@ -16,6 +16,7 @@ from matplotlib.patches import Rectangle
 from bench import normalize, plot, store
 from bench.costs import CostModel, TimeLimit, estimate
 from bench.runner import _jobs, run_suite
+from bench.snapshots import SnapshotPlan
 from bench.suite import expand, load_suite
 from bench.types import TrialResult, TrialSpec
 
@@ -186,6 +187,29 @@ def test_a_time_limit_starts_the_dearest_trial_that_still_fits_and_then_stops():
     assert order == [*specs, reference]
 
 
+def test_once_none_fits_a_time_limit_starts_trials_that_can_pause_while_worth_it(tmp_path):
+    # Survival takes snapshots and can pause at the limit; random cannot. At 0.01 s per step,
+    # survival's 1,000 steps fit in the 40 s left and its 5,000 do not; random is unpriced.
+    dear = TrialSpec("t", PENDULUM, "survival", 1, 0, 5000, 1)
+    cheap = dataclasses.replace(dear, seed=1, budget=1000)
+    unpriced = TrialSpec("t", PENDULUM, "random", 1, 0, 1000, 1)
+    costs = CostModel.of([finished(dataclasses.replace(dear, seed=9, budget=1000), 10.0)])
+    now = [10.0]
+    limit = TimeLimit.starting_now(40.0, clock=lambda: now[0], pause_floor_s=20.0)
+    plan = SnapshotPlan.of(tmp_path)
+    jobs = _jobs([unpriced, cheap, dear], costs, limit=limit, snapshot_plan=plan)
+    assert next(jobs)[1][0] == cheap  # 10 s: fits
+    assert next(jobs)[1][0] == dear  # 50 s does not, but it can pause, with 40 s left
+    assert next(jobs, None) is None  # random cannot pause
+    now[0] = 30.0  # 20 s left: still worth starting one that pauses, 19.9 s not
+    assert next(_jobs([dear], costs, limit=limit, snapshot_plan=plan))[1][0] == dear
+    now[0] = 30.1
+    assert next(_jobs([dear], costs, limit=limit, snapshot_plan=plan), None) is None
+    # Without snapshots nothing can pause: only what fits starts.
+    now[0] = 10.0
+    assert [job[1][0] for job in _jobs([dear, cheap], costs, limit=limit)] == [cheap]
+
+
 def test_time_limit_leaves_the_trials_that_would_not_fit(tmp_path, cli):
     # Prices come from the records beside the results folder: here, records that say a
     # survival trial takes an hour per 2,048 steps and a random one two seconds.
@@ -200,7 +224,8 @@ def test_time_limit_leaves_the_trials_that_would_not_fit(tmp_path, cli):
         "algorithms: [random, survival]\n",
     )
     run = ("run", str(suite), "--results", str(results / "limited"), "--jobs", "2")
-    out = cli(*run, "--time-limit", "10m")
+    # Under 5 min, not even a trial that could pause at the limit is worth starting.
+    out = cli(*run, "--time-limit", "4m")
     assert out.returncode == 0, out.stderr
     assert "1 trials done, 0 failed" in out.stdout and "1 trials not started" in out.stdout
     assert {r.spec.algorithm for r in store.scan(results / "limited")} == {"random"}

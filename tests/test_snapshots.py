@@ -1,5 +1,6 @@
-"""Snapshots for real: a trial killed mid-run resumes from its last snapshot and ends exactly
-where it would have ended in one go (same machine, same seed), off-policy and on."""
+"""Snapshots for real: a trial killed mid-run, or paused at a time limit, resumes from its last
+snapshot and ends exactly where it would have ended in one go (same machine, same seed),
+off-policy and on."""
 
 import dataclasses
 import json
@@ -12,7 +13,7 @@ import time
 import pytest
 
 from bench import policies, store
-from bench.costs import estimate
+from bench.costs import TimeLimit, estimate
 from bench.runner import run_suite
 from bench.snapshots import FOLDER, SnapshotPlan
 from bench.suite import expand, load_suite
@@ -60,7 +61,9 @@ LEARNERS = {
 
 
 @pytest.mark.parametrize("optimizer", sorted(LEARNERS))
-def test_a_killed_trial_resumes_and_ends_as_if_never_stopped(optimizer, tmp_path, bench_here):
+def test_a_killed_then_paused_trial_resumes_and_ends_as_if_never_stopped(
+    optimizer, tmp_path, bench_here
+):
     budget, algorithms = LEARNERS[optimizer]
     suite = tmp_path / "s.yaml"
     suite.write_text(
@@ -90,6 +93,14 @@ def test_a_killed_trial_resumes_and_ends_as_if_never_stopped(optimizer, tmp_path
 
     out = bench_here("run", str(suite), "--results", str(cut), "--estimate")
     assert f"{len(specs)} of them resume from a snapshot" in out.stdout, out.stdout
+    # Resumed under a time limit that ends in half a second: each trial still in flight then
+    # saves and stops at its next chance (one that finished first has its record).
+    limit = TimeLimit.starting_now(0.5, pause_floor_s=0.0)
+    stopped = run_suite(specs, cut, jobs=2, progress=False, limit=limit)
+    assert stopped.failed == 0 and stopped.paused >= 1, stopped
+    assert stopped.done + stopped.paused == len(specs)
+    paused = SnapshotPlan.of(cut).saved() - {r.trial_id for r in store.scan(cut)}
+    assert len(paused) == stopped.paused
     out = bench_here("run", str(suite), "--results", str(cut), "--jobs", "2")
     assert out.returncode == 0, out.stderr
     assert not list((cut / FOLDER).iterdir())  # a written record ends its snapshot, leftovers too
@@ -102,6 +113,8 @@ def test_a_killed_trial_resumes_and_ends_as_if_never_stopped(optimizer, tmp_path
     for one_go in store.scan(whole):
         again = resumed[one_go.trial_id]
         assert again.resumed_at and 300 < again.resumed_at[0] < budget  # updates under way
+        assert len(again.resumed_at) == (2 if again.trial_id in paused else 1)
+        assert again.resumed_at == sorted(again.resumed_at)
         assert again.env_steps == one_go.env_steps == budget
         assert again.returns == one_go.returns
         assert again.curve == one_go.curve

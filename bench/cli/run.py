@@ -22,6 +22,7 @@ def _run(args: argparse.Namespace) -> int:
     from bench import store
     from bench.costs import TimeLimit
     from bench.runner import run_suite
+    from bench.snapshots import FOLDER
 
     results = Path(args.results) if args.results else Path("results") / suite.name
     backend = args.backend or suite.runner.backend
@@ -54,6 +55,11 @@ def _run(args: argparse.Namespace) -> int:
         f"{summary.done} trials done, {summary.failed} failed, "
         f"{summary.skipped} already finished (records in {results}/trials)"
     )
+    if summary.paused:
+        print(
+            f"{summary.paused} trials paused at the time limit, each kept as a snapshot in"
+            f" {results}/{FOLDER}/ (run again to resume them)"
+        )
     if summary.left:
         print(
             f"{summary.left} trials not started: not expected to finish within --time-limit"
@@ -158,8 +164,10 @@ def add(sub: argparse._SubParsersAction) -> None:
         "--time-limit",
         type=duration,
         metavar="DURATION",
-        help="start only the trials expected to finish within DURATION from now (e.g. 2h30m;"
-        " priced as --estimate prices them), dearest first; leave the rest for a later run",
+        help="end the run DURATION from now (e.g. 2h30m): start the trials expected to finish"
+        " by then (priced as --estimate prices them), dearest first, then those that can pause"
+        " (every built-in algorithm's); at the limit, those in flight save a snapshot and stop,"
+        " to resume next run",
     )
     run.add_argument(
         "--snapshot-every",
