@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import hashlib
 import io
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -206,6 +207,37 @@ def load_action_demos(
     acts = split_episodes(data["actions"], lengths - 1)
     idx = _pick(len(lengths), k, seed)
     return ActionDemos(demos, tuple(acts[i] for i in idx))
+
+
+@dataclass(frozen=True)
+class PoolEpisode:
+    """One recorded episode of a pool, as `bench demos show` lists it."""
+
+    index: int
+    steps: int
+    expert_return: float
+    terminated: bool
+    """It ended in a terminal state (a fall, in locomotion) rather than at the time limit."""
+
+
+def pool_episodes(path: Path, env_id: str) -> list[PoolEpisode]:
+    """Every episode of a pool: its length, the expert's return in it, and how it ended."""
+    data = _open(path, env_id)
+    steps = data["obs_lengths"] - 1
+    returns = [float(r.sum()) for r in split_episodes(data["rewards"], steps)]
+    return [
+        PoolEpisode(i, int(n), ret, bool(term))
+        for i, (n, ret, term) in enumerate(zip(steps, returns, data["terminated"], strict=True))
+    ]
+
+
+def drawn_by(n_pool: int, k: int, seeds: range) -> dict[int, list[int]]:
+    """Pool episode -> the seeds whose trials with `k` demonstrations are given it."""
+    drawn: dict[int, list[int]] = {}
+    for seed in seeds:
+        for i in _pick(n_pool, k, seed):
+            drawn.setdefault(int(i), []).append(seed)
+    return drawn
 
 
 def pool_states(path: Path, env_id: str) -> np.ndarray:

@@ -124,6 +124,35 @@ def test_demos_say_which_episodes_terminated(tiny_expert):
     assert drawn.terminated == tuple(len(o) - 1 < 1000 for o in drawn.observations)
 
 
+def test_demos_show_lists_each_episode_and_the_seeds_given_it(tiny_expert, bench_here):
+    env_id, _ = tiny_expert
+    path = demos.ensure_pool(env_id)
+    pool = demos.load_demos(path, env_id)
+    out = bench_here("demos", "show", env_id, "--demos", "3", "--seeds", "4")
+    assert out.returncode == 0, out.stderr
+    head, _, *lines = out.stdout.splitlines()
+    assert f"{sum(pool.terminated)} ending in a terminal state" in head
+    assert len(lines) == demos.POOL_SIZE
+    given: dict[int, list[int]] = {seed: [] for seed in range(4)}
+    for i, line in enumerate(lines):
+        index, steps, _, *rest = line.split()
+        ends = rest.pop(0) if rest[0] == "terminal" else " ".join(rest.pop(0) for _ in "ab")
+        assert (int(index), int(steps)) == (i, len(pool.observations[i]) - 1)
+        assert ends == ("terminal" if pool.terminated[i] else "time limit")
+        for seed in rest:
+            given[int(seed.rstrip(","))].append(i)
+    for seed, episodes in given.items():  # what a trial of that seed is handed
+        drawn = demos.load_demos(path, env_id, k=3, seed=seed).observations
+        assert len(episodes) == 3
+        assert all(
+            np.array_equal(a, pool.observations[i]) for a, i in zip(drawn, episodes, strict=True)
+        )
+
+    out = bench_here("demos", "show", env_id, "--demos", str(demos.POOL_SIZE + 1))
+    assert out.returncode == 2 and "the pool has 25 episodes" in out.stderr
+    assert out.stdout == "" and len(out.stderr.strip().splitlines()) == 1
+
+
 def test_demos_without_flags_never_terminated():
     episode = np.zeros((3, 2), np.float32)
     assert Demos("x", (episode, episode)).terminated == (False, False)

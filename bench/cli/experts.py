@@ -152,6 +152,34 @@ def _demos_export(args: argparse.Namespace) -> int:
     return 0
 
 
+def _demos_show(args: argparse.Namespace) -> int:
+    from bench import demos, envs
+
+    envs.check_env_id(args.env_id)
+    if args.demos is not None and args.demos > demos.POOL_SIZE:
+        raise demos.DemoError(
+            f"demos show: --demos {args.demos}: the pool has {demos.POOL_SIZE} episodes"
+        )
+    episodes = demos.pool_episodes(demos.ensure_pool(args.env_id), args.env_id)
+    falls = [e for e in episodes if e.terminated]
+    print(
+        f"{args.env_id}: {len(episodes)} expert episodes (env seeds {demos.POOL_SEED}-"
+        f"{demos.POOL_SEED + len(episodes) - 1}), {len(falls)} ending in a terminal state"
+    )
+    drawn = {}
+    header = f"{'episode':>7s} {'steps':>6s} {'return':>9s}  {'ends':12s}"
+    if args.demos is not None:
+        drawn = demos.drawn_by(len(episodes), args.demos, range(args.seeds))
+        count = f"{args.demos} demo{'s' if args.demos > 1 else ''}"
+        header += f"  seeds given it at {count} (of 0-{args.seeds - 1})"
+    print(header)
+    for e in episodes:
+        ends = "terminal" if e.terminated else "time limit"
+        seeds = ", ".join(map(str, drawn.get(e.index, [])))
+        print(f"{e.index:7d} {e.steps:6d} {e.expert_return:9.1f}  {ends:12s}  {seeds}".rstrip())
+    return 0
+
+
 def add(sub: argparse._SubParsersAction) -> None:
     """The `list`, `experts` and `demos` commands."""
     lst = sub.add_parser("list", help="registered algorithms and available experts")
@@ -212,3 +240,19 @@ def add(sub: argparse._SubParsersAction) -> None:
         help="results folder whose random and expert trials define the scores, e.g. results/pybullet",
     )
     exp.set_defaults(func=_demos_export)
+    show = dsub.add_parser(
+        "show",
+        help="list an env's expert pool: each episode's length, return and how it ended",
+        description="List ENV_ID's expert demonstration pool (recorded first if not cached): each"
+        " episode's steps, the expert's return and whether it ended in a terminal state (a fall)"
+        " or at the time limit; with --demos N, which seeds' trials with N demonstrations are"
+        " given each episode.",
+    )
+    show.add_argument("env_id", help="gymnasium id, e.g. Walker2DBulletEnv-v0")
+    show.add_argument(
+        "--demos", type=at_least(1), metavar="N", help="show which seeds draw each episode at N"
+    )
+    show.add_argument(
+        "--seeds", type=at_least(1), default=10, help="seeds 0..K-1 to show (default 10)"
+    )
+    show.set_defaults(func=_demos_show)
