@@ -201,7 +201,18 @@ def at_a_glance(
         [labels.algorithm_label(a, action_users), *by_count(iqm, (a,), counts)]
         for a in labels.in_order(aggregates["algorithm"])
     ]
+    # Each count pools only the envs where every learner has runs: while a suite is partly run,
+    # counts can pool different envs, and their columns then do not compare.
+    pooled = aggregates.groupby("n_demos")["envs"].max()
+    rows.append(["envs pooled", *(str(pooled[n]) for n in counts)])
     lines = ["## At a glance", "", table(pd.DataFrame(rows, columns=["IQM [95% CI]", *columns]))]
+    if pooled.nunique() > 1:
+        lines += [
+            "",
+            "Each column pools the envs where every learner has runs with that many"
+            " demonstrations (the sections below name the ones left out), and these columns pool"
+            " different numbers of them, so read down a column, not across a row.",
+        ]
     if len(improvement):
         pi = improvement.set_index(["algorithm", "other", "n_demos"])
         pairs = dict.fromkeys(zip(improvement["algorithm"], improvement["other"], strict=True))

@@ -10,7 +10,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from bench import cli, comparisons, report, stats, store
+from bench import cli, comparisons, markdown, report, stats, store
 from bench.types import CurvePoint, TrialResult, TrialSpec
 
 ENVS = {"InvertedPendulumBulletEnv-v0": (20.0, 1000.0), "HopperBulletEnv-v0": (-5.0, 2500.0)}
@@ -84,6 +84,7 @@ def test_report_has_every_table_and_figure(written, table_rows):
         ["GAIfO > GAIL*", "1.00 [1.00, 1.00]"],
         ["GAIL* > Survival", "1.00 [1.00, 1.00]"],
         ["IQM [95% CI] (seeds)", "InvertedPendulum", "Hopper", "pooled"],
+        ["envs pooled", "2", "2"],  # at a glance, each count over both envs
     ):
         assert row in rows, row
     assert any(r[0] == "seeds per cell" and r[1].startswith("4 ") for r in rows)
@@ -384,3 +385,18 @@ def test_screen_variants_on_one_env_each_leave_the_pooled_statistics_not_the_oth
     assert len(left_out) == 2 and "gaifo-x: left out" in left_out[0]
     assert left_out[0].endswith("run on A only, not on all of A, B")
     assert pooled(df, 5, ["gaifo", "gaifo-x"], []) == ["gaifo", "gaifo-x"]  # they share env A
+
+
+def test_at_a_glance_says_when_its_counts_pool_different_envs(table_rows):
+    def aggregates(envs_per_count: dict[int, int]) -> pd.DataFrame:
+        return pd.DataFrame(
+            [[n, "gaifo", 5, envs, "iqm", 0.5, 0.4, 0.6] for n, envs in envs_per_count.items()],
+            columns=report.AGGREGATE_COLUMNS,
+        )
+
+    empty = pd.DataFrame(columns=report.IMPROVEMENT_COLUMNS)
+    partial = markdown.at_a_glance(aggregates({1: 2, 5: 6}), empty, ())
+    assert ["envs pooled", "2", "6"] in table_rows(partial)
+    assert "read down a column, not across a row" in partial
+    whole = markdown.at_a_glance(aggregates({1: 6, 5: 6}), empty, ())
+    assert ["envs pooled", "6", "6"] in table_rows(whole) and "across a row" not in whole
