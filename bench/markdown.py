@@ -222,6 +222,41 @@ def at_a_glance(
     return "\n".join(lines)
 
 
+def env_by_count(per_env: pd.DataFrame, action_users: Collection[str]) -> str:
+    """Each learner's IQM on each env at every demo count, in one table: a row per learner, a
+    column per env, each cell its IQMs at the counts in order ("-" where it has none): the
+    numbers behind Figure 2's bars, read across counts."""
+    iqm = per_env[(per_env["statistic"] == "iqm") & (per_env["env_id"] != POOLED)]
+    if iqm.empty:
+        return ""
+    counts = sorted(iqm["n_demos"].unique())
+    envs = labels.env_order(iqm["env_id"].unique())
+    at = iqm.set_index(["algorithm", "env_id", "n_demos"])["estimate"]
+
+    def cell(algorithm: str, env_id: str) -> str:
+        values = [at.get((algorithm, env_id, n)) for n in counts]
+        if all(v is None for v in values):
+            return ""
+        return " / ".join("-" if v is None else f"{v:.2f}" for v in values)
+
+    rows = [
+        [labels.algorithm_label(a, action_users), *(cell(a, e) for e in envs)]
+        for a in labels.in_order(iqm["algorithm"])
+    ]
+    shown = " / ".join(str(n) for n in counts)
+    header = [f"IQM at {shown} demos", *(labels.env_label(e) for e in envs)]
+    return "\n".join(
+        [
+            "## Per env, across demonstration counts",
+            "",
+            "Each env's IQM over its seeds at each demonstration count, as the per-env sections"
+            ' below give them with their CIs; "-" where a count has no runs yet.',
+            "",
+            table(pd.DataFrame(rows, columns=header)),
+        ]
+    )
+
+
 def by_count(frame: pd.DataFrame, key: tuple, counts: Sequence[int]) -> list[str]:
     """`estimate [lo, hi]` of `frame` (indexed by `key` and then the demo count) at each of
     `counts`; blank where it has none."""

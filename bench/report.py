@@ -123,9 +123,8 @@ def write_report(results_dir: Path, out_dir: Path | None = None, reps: int = 200
     improvements = _concat([improvement for _, _, improvement in per_count], IMPROVEMENT_COLUMNS)
     aggregates.to_csv(out_dir / AGGREGATES_CSV, index=False)
     improvements.to_csv(out_dir / IMPROVEMENT_CSV, index=False)
-    _concat([rows for _, rows in by_env], PER_ENV_COLUMNS).to_csv(
-        out_dir / PER_ENV_CSV, index=False
-    )
+    per_env = _concat([rows for _, rows in by_env], PER_ENV_COLUMNS)
+    per_env.to_csv(out_dir / PER_ENV_CSV, index=False)
     _concat([rows for _, rows in matched], STATE_MATCH_COLUMNS).to_csv(
         out_dir / STATE_MATCH_CSV, index=False
     )
@@ -135,6 +134,7 @@ def write_report(results_dir: Path, out_dir: Path | None = None, reps: int = 200
         markdown.how_to_read(learners, reps, starred),
         markdown.at_a_glance(aggregates, improvements, starred),
         figure_section,
+        markdown.env_by_count(per_env, starred),
         *(text for text, _, _ in per_count),
         *(text for text, _ in by_env),
         *(text for text, _ in matched),

@@ -10,7 +10,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from bench import cli, comparisons, markdown, report, stats, store
+from bench import cli, comparisons, labels, markdown, report, stats, store
 from bench.types import CurvePoint, TrialResult, TrialSpec
 
 ENVS = {"InvertedPendulumBulletEnv-v0": (20.0, 1000.0), "HopperBulletEnv-v0": (-5.0, 2500.0)}
@@ -400,3 +400,35 @@ def test_at_a_glance_says_when_its_counts_pool_different_envs(table_rows):
     assert "read down a column, not across a row" in partial
     whole = markdown.at_a_glance(aggregates({1: 6, 5: 6}), empty, ())
     assert ["envs pooled", "6", "6"] in table_rows(whole) and "across a row" not in whole
+
+
+def test_per_env_across_counts_gives_each_env_iqm_at_every_count(written, table_rows):
+    text = written.read_text()
+    assert "## Per env, across demonstration counts" in text
+    per_env = pd.read_csv(written.parent / "per_env.csv")
+    iqm = per_env[per_env["statistic"] == "iqm"].set_index(["algorithm", "env_id", "n_demos"])
+    section = text.split("## Per env, across demonstration counts")[1].split("\n## ")[0]
+    header, *rows = table_rows(section)
+    assert header[0] == "IQM at 1 / 5 demos" and [r[0] for r in rows] == [
+        "GAIfO",
+        "GAIL*",
+        "Survival",
+    ]
+    for column, env_id in ((1, PENDULUM), (2, "HopperBulletEnv-v0")):
+        assert header[column] == labels.env_label(env_id)
+        for row, algorithm in zip(rows, ("gaifo", "gail", "survival"), strict=True):
+            at = [iqm.loc[(algorithm, env_id, n), "estimate"] for n in DEMOS]
+            assert row[column] == " / ".join(f"{v:.2f}" for v in at)
+
+
+def test_per_env_across_counts_marks_a_count_without_runs(table_rows):
+    rows = [
+        [1, PENDULUM, "iqm", "gaifo", None, 5, 0.5, 0.4, 0.6],
+        [25, PENDULUM, "iqm", "gaifo", None, 5, 0.9, 0.8, 1.0],
+        [25, PENDULUM, "iqm", "bco", None, 3, 0.25, 0.2, 0.3],
+        [25, "pooled", "iqm", "bco", None, 3, 0.25, 0.2, 0.3],
+    ]
+    per_env = pd.DataFrame(rows, columns=report.PER_ENV_COLUMNS)
+    header, *body = table_rows(markdown.env_by_count(per_env, ()))
+    assert header == ["IQM at 1 / 25 demos", labels.env_label(PENDULUM)]
+    assert body == [["GAIfO", "0.50 / 0.90"], ["BCO", "- / 0.25"]]
