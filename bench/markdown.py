@@ -12,7 +12,7 @@ from pathlib import Path
 import pandas as pd
 
 from bench import labels
-from bench.comparisons import POOLED
+from bench.comparisons import POOLED, TARGET
 from bench.normalize import EXPERT, ORACLE, RANDOM, REFERENCES
 
 MAX_LISTED = 20
@@ -223,34 +223,45 @@ def at_a_glance(
 
 
 def env_by_count(per_env: pd.DataFrame, action_users: Collection[str]) -> str:
-    """Each learner's IQM on each env at every demo count, in one table: a row per learner, a
-    column per env, each cell its IQMs at the counts in order ("-" where it has none): the
-    numbers behind Figure 2's bars, read across counts."""
-    iqm = per_env[(per_env["statistic"] == "iqm") & (per_env["env_id"] != POOLED)]
+    """Each learner's IQM on each env at every demo count, in one table, and GAIfO's
+    probabilities of improvement over the others: a row per learner (or pair), a column per env,
+    each cell its values at the counts in order ("-" where it has none): the numbers behind
+    Figure 2's bars, read across counts."""
+    per_env = per_env[per_env["env_id"] != POOLED]
+    iqm = per_env[per_env["statistic"] == "iqm"]
     if iqm.empty:
         return ""
+    pairs = per_env[(per_env["statistic"] == "p_improvement") & (per_env["algorithm"] == TARGET)]
     counts = sorted(iqm["n_demos"].unique())
     envs = labels.env_order(iqm["env_id"].unique())
-    at = iqm.set_index(["algorithm", "env_id", "n_demos"])["estimate"]
 
-    def cell(algorithm: str, env_id: str) -> str:
-        values = [at.get((algorithm, env_id, n)) for n in counts]
-        if all(v is None for v in values):
-            return ""
-        return " / ".join("-" if v is None else f"{v:.2f}" for v in values)
+    def cells(frame: pd.DataFrame) -> list[str]:
+        """One row's cells: `frame`'s estimates (one learner's or pair's) per env and count."""
+        at = frame.set_index(["env_id", "n_demos"])["estimate"]
+        row = []
+        for env_id in envs:
+            values = [at.get((env_id, n)) for n in counts]
+            shown = " / ".join("-" if v is None else f"{v:.2f}" for v in values)
+            row.append("" if all(v is None for v in values) else shown)
+        return row
 
     rows = [
-        [labels.algorithm_label(a, action_users), *(cell(a, e) for e in envs)]
+        [labels.algorithm_label(a, action_users), *cells(iqm[iqm["algorithm"] == a])]
         for a in labels.in_order(iqm["algorithm"])
     ]
+    rows += [
+        [pair_label(TARGET, other, action_users), *cells(pairs[pairs["other"] == other])]
+        for other in labels.in_order(pairs["other"])
+    ]
     shown = " / ".join(str(n) for n in counts)
-    header = [f"IQM at {shown} demos", *(labels.env_label(e) for e in envs)]
+    header = [f"at {shown} demos", *(labels.env_label(e) for e in envs)]
     return "\n".join(
         [
             "## Per env, across demonstration counts",
             "",
-            "Each env's IQM over its seeds at each demonstration count, as the per-env sections"
-            ' below give them with their CIs; "-" where a count has no runs yet.',
+            "Each env's IQM over its seeds at each demonstration count, then the probability that"
+            " a GAIfO run beats a run of each other learner there, as the per-env sections below"
+            ' give them with their CIs; "-" where a count has no runs yet.',
             "",
             table(pd.DataFrame(rows, columns=header)),
         ]

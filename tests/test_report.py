@@ -407,17 +407,20 @@ def test_per_env_across_counts_gives_each_env_iqm_at_every_count(written, table_
     assert "## Per env, across demonstration counts" in text
     per_env = pd.read_csv(written.parent / "per_env.csv")
     iqm = per_env[per_env["statistic"] == "iqm"].set_index(["algorithm", "env_id", "n_demos"])
+    pi = per_env[per_env["statistic"] == "p_improvement"]
+    pi = pi.set_index(["algorithm", "other", "env_id", "n_demos"])
     section = text.split("## Per env, across demonstration counts")[1].split("\n## ")[0]
     header, *rows = table_rows(section)
-    assert header[0] == "IQM at 1 / 5 demos" and [r[0] for r in rows] == [
-        "GAIfO",
-        "GAIL*",
-        "Survival",
-    ]
+    assert header[0] == "at 1 / 5 demos"
+    pairs = ["GAIfO > GAIL*", "GAIfO > Survival"]
+    assert [r[0] for r in rows] == ["GAIfO", "GAIL*", "Survival", *pairs]
     for column, env_id in ((1, PENDULUM), (2, "HopperBulletEnv-v0")):
         assert header[column] == labels.env_label(env_id)
-        for row, algorithm in zip(rows, ("gaifo", "gail", "survival"), strict=True):
+        for row, algorithm in zip(rows, ("gaifo", "gail", "survival"), strict=False):
             at = [iqm.loc[(algorithm, env_id, n), "estimate"] for n in DEMOS]
+            assert row[column] == " / ".join(f"{v:.2f}" for v in at)
+        for row, other in zip(rows[3:], ("gail", "survival"), strict=True):
+            at = [pi.loc[("gaifo", other, env_id, n), "estimate"] for n in DEMOS]
             assert row[column] == " / ".join(f"{v:.2f}" for v in at)
 
 
@@ -430,5 +433,5 @@ def test_per_env_across_counts_marks_a_count_without_runs(table_rows):
     ]
     per_env = pd.DataFrame(rows, columns=report.PER_ENV_COLUMNS)
     header, *body = table_rows(markdown.env_by_count(per_env, ()))
-    assert header == ["IQM at 1 / 25 demos", labels.env_label(PENDULUM)]
+    assert header == ["at 1 / 25 demos", labels.env_label(PENDULUM)]
     assert body == [["GAIfO", "0.50 / 0.90"], ["BCO", "- / 0.25"]]
