@@ -165,6 +165,12 @@ def estimate(
     return out
 
 
+PAUSE_FLOOR_S = 300.0
+"""Default least time left for which a trial that will not finish is still started under a time
+limit, to pause at the deadline: with less, its start and its snapshot would be most of what it
+did."""
+
+
 @dataclass(frozen=True)
 class TimeLimit:
     """A wall-clock end for a run, so that a run on a cluster's wall-clock allowance or in a
@@ -175,16 +181,15 @@ class TimeLimit:
     deadline: float
     """On `clock`'s scale."""
     clock: Callable[[], float] = time.monotonic
-    pause_floor_s: float = 300.0
-    """The least time left for which a trial that will not finish is still started, to pause at
-    the deadline: with less, its start and its snapshot would be most of what it did."""
+    pause_floor_s: float = PAUSE_FLOOR_S
+    """The least time left for which a trial that will not finish is still started."""
 
     @classmethod
     def starting_now(
         cls,
         limit: float,
         clock: Callable[[], float] = time.monotonic,
-        pause_floor_s: float = 300.0,
+        pause_floor_s: float = PAUSE_FLOOR_S,
     ) -> TimeLimit:
         return cls(clock() + limit, clock, pause_floor_s)
 

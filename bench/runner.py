@@ -20,7 +20,7 @@ from pathlib import Path
 import joblib
 from tqdm import tqdm
 
-from bench import policies, snapshots, store
+from bench import policies, registry, snapshots, store
 from bench.costs import CostModel, TimeLimit
 from bench.snapshots import SnapshotPlan
 from bench.trial import demo_pool, plan, run_trial
@@ -69,7 +69,7 @@ def _jobs(
         return (bool({spec.algorithm, spec.shown} & first), *costs.priority(spec))
 
     def pausable(spec: TrialSpec) -> bool:
-        return snapshot_plan is not None and plan(spec).algorithm.resumable
+        return snapshot_plan is not None and registry.get(spec.algorithm).resumable
 
     remaining = list(specs)
     while remaining:  # a generator: the next trial is chosen (and loaded) as a worker frees up
