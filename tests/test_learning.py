@@ -62,14 +62,15 @@ def test_adversarial_learners_imitate_inverted_pendulum_from_one_demonstration(t
 
 def test_sac_swings_up_the_pendulum():
     """The off-policy optimizer on its field's first check: gymnasium's Pendulum-v1 (random
-    -1,200 to -1,500; solved about -150). Measured at 10k steps, 64 x 64: seeds 0-11 all at
-    -140 to -146 but seed 1 at -649 (still swinging up), so of two seeds (one round on two
-    cores) one solves it with room to spare, and neither is left near random's level. Seeds
-    0 and 1: the slow seed is in, and the claim allows for it."""
+    -1,200 to -1,500; solved about -150). Measured at 10k steps, 64 x 64: -142, -649, -142 on
+    seeds 0-2 and -142, -143, -146 on 3-5 (the slow seed is still swinging up), and on the
+    disjoint seeds 6-11 -146, -142, -143, -146, -144, -140: a median above -300 with room to
+    spare, and no more than one slow seed."""
     import joblib
+    import numpy as np
 
-    scores = joblib.Parallel(n_jobs=2)(joblib.delayed(_sac_pendulum)(seed) for seed in (0, 1))
-    assert max(scores) > -200 and min(scores) > -1000, scores
+    scores = joblib.Parallel(n_jobs=2)(joblib.delayed(_sac_pendulum)(seed) for seed in (0, 1, 2))
+    assert np.median(scores) > -300 and sum(s > -400 for s in scores) >= 2, scores
 
 
 def _sac_pendulum(seed: int) -> float:
