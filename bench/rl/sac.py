@@ -34,8 +34,8 @@ from torch import nn
 from bench.registry import Snapshots, added_later
 from bench.rl import stateful
 from bench.rl.absorbing import FLAG
-from bench.rl.episodes import Episode
 from bench.rl.networks import mlp
+from bench.rl.rollout import VecCollector
 
 
 @dataclass
@@ -429,13 +429,9 @@ def train(
     `reward_fn` that learns (a discriminator) has a `state_dict` and `load_state_dict` too."""
     report_every = report_every or min(5_000, max(1, budget // 20))
     torch.set_num_threads(1)
-    envs = [make_env(seed * 1000 + i) for i in range(cfg.n_envs)]
-    space = envs[0].action_space
-    low, high = space.low.astype(np.float32), space.high.astype(np.float32)
-    begun = [Episode.begin(env, seed * 1000 + i) for i, env in enumerate(envs)]
-    obs = np.stack([o for o, _, _ in begun]).astype(np.float32).reshape(len(envs), -1)
-    episodes = [episode for _, _, episode in begun]
-    learner = learner or SAC(obs.shape[1], len(low), low, high, cfg, seed)
+    collector = VecCollector([make_env(seed * 1000 + i) for i in range(cfg.n_envs)], seed * 1000)
+    n_envs, low, high = len(collector.envs), collector.low, collector.high
+    learner = learner or SAC(collector.obs.shape[1], len(low), low, high, cfg, seed)
     buffer = learner.buffer
     rng = np.random.default_rng(seed)
     reward = reward_fn or (lambda batch: batch.env_rewards)
@@ -443,6 +439,13 @@ def train(
     clock = {"collect_s": 0.0, "update_s": 0.0}
     # What learns besides the learner: a reward with a state of its own (D), and the loop.
     extra = {"reward": reward} if hasattr(reward, "state_dict") else {}
+
+    def act(obs: np.ndarray) -> np.ndarray:
+        """Uniform random actions for the first `learning_starts` steps, then the actor's."""
+        if steps < cfg.learning_starts:
+            return rng.uniform(low, high, size=(len(obs), len(low))).astype(np.float32)
+        with torch.no_grad():
+            return learner.explore(torch.from_numpy(flagged(obs)).to(learner.device)).cpu().numpy()
 
     def snapshot() -> dict[str, Any]:
         loop = {"steps": steps, "owed": owed, "info": info, "next_report": next_report}
@@ -452,7 +455,7 @@ def train(
             "loop": {**loop, "clock": clock},
             "rng": rng.bit_generator.state,
             "torch_rng": torch.get_rng_state(),
-            "episodes": [episode.state() for episode in episodes],
+            "collector": collector.state_dict(),
         }
 
     resumed = snapshots.load() if snapshots is not None else None
@@ -464,41 +467,26 @@ def train(
         next_report, clock = loop["next_report"], loop["clock"]
         rng.bit_generator.state = resumed["rng"]
         torch.set_rng_state(resumed["torch_rng"])
-        episodes = [Episode.of_state(e) for e in resumed["episodes"]]
         with snapshots.replaying():
-            obs = np.stack(
-                [np.ravel(e.replay(env)[0]) for e, env in zip(episodes, envs, strict=True)]
-            )
-        obs = obs.astype(np.float32)
+            collector.load_state_dict(resumed["collector"])
     try:
-        while steps + len(envs) <= budget:
+        while steps + n_envs <= budget:
             t0 = time.perf_counter()
-            if steps < cfg.learning_starts:
-                actions = rng.uniform(low, high, size=(len(envs), len(low))).astype(np.float32)
-            else:
-                with torch.no_grad():
-                    seen = torch.from_numpy(flagged(obs)).to(learner.device)
-                    actions = learner.explore(seen).cpu().numpy()
-            before = obs.copy()
-            next_obs = np.empty_like(obs)
-            rewards = np.empty(len(envs), np.float32)
-            terminated = np.zeros(len(envs), bool)
-            for i, env in enumerate(envs):
-                o, r, term, trunc, _ = env.step(actions[i])
-                episodes[i].actions.append(actions[i])
-                next_obs[i], rewards[i], terminated[i] = np.ravel(o), r, term
-                if term or trunc:
-                    o, _, episodes[i] = Episode.begin(env)
-                obs[i] = np.ravel(o)
+            step = collector.run(act, 1)  # one step of every env: arrays (1, E, ...)
             rows = transitions_of_step(
-                before, actions, next_obs, rewards, terminated, cfg.absorbing
+                step.obs[0],
+                step.actions[0],
+                step.next_obs[0],
+                step.rewards[0],
+                step.terminated[0],
+                cfg.absorbing,
             )
             buffer.add(*rows)
-            steps += len(envs)
+            steps += n_envs
             clock["collect_s"] += time.perf_counter() - t0
             t1 = time.perf_counter()
             if steps >= cfg.learning_starts:
-                owed += cfg.updates_per_step * len(envs)
+                owed += cfg.updates_per_step * n_envs
                 while owed >= 1:
                     batch = buffer.sample(cfg.batch_size, learner.device)
                     rewards = reward(batch)
@@ -511,9 +499,8 @@ def train(
             if callback is not None and steps >= next_report:
                 callback(steps, learner, {**info, **clock})
                 next_report += report_every
-            if snapshots is not None and snapshots.due() and steps + len(envs) <= budget:
+            if snapshots is not None and snapshots.due() and steps + n_envs <= budget:
                 snapshots.save(snapshot())
     finally:
-        for env in envs:
-            env.close()
+        collector.close()
     return learner
