@@ -2,9 +2,11 @@ import contextlib
 import io
 import os
 import re
+import shutil
 import subprocess
 import sys
 import warnings
+from pathlib import Path
 
 import pytest
 import torch
@@ -21,11 +23,13 @@ def pendulum() -> str:
 
 
 @pytest.fixture(scope="module")
-def module_cache(tmp_path_factory):
-    """A private bench cache (demo pools) shared by one test module, so pools are recorded once."""
+def module_cache(tmp_path_factory, pendulum_pool):
+    """A private bench cache (demo pools) shared by one test module, so pools are recorded once,
+    holding a copy of the pendulum's pool."""
     mp = pytest.MonkeyPatch()
     root = tmp_path_factory.mktemp("cache")
     mp.setattr("bench.paths.CACHE_DIR", root)
+    _copy_pendulum_pool(pendulum_pool)
     yield root
     mp.undo()
 
@@ -82,10 +86,36 @@ def bench_here():
 
 
 @pytest.fixture()
-def demo_cache(tmp_path, monkeypatch):
-    """A private demo cache per test, for this process and any bench subprocess it starts."""
+def demo_cache(tmp_path, monkeypatch, pendulum_pool):
+    """A private demo cache per test, for this process and any bench subprocess it starts,
+    holding a copy of the pendulum's pool (`pendulum_pool`); every other pool is recorded in
+    it as a user's cache records it."""
     monkeypatch.setenv("IFO_BENCH_CACHE", str(tmp_path / "cache"))
     monkeypatch.setattr("bench.paths.CACHE_DIR", tmp_path / "cache")
+    _copy_pendulum_pool(pendulum_pool)
+
+
+@pytest.fixture(scope="session")
+def pendulum_pool(tmp_path_factory) -> Path:
+    """The pendulum expert's pool of demonstrations, recorded once per test process: most
+    tests train on it, and recording it costs ~10 s of CPU, which a dozen tests each paid when
+    every test recorded its own. A copy goes into each test's cache, so none sees another's."""
+    from bench import demos
+    from bench.experts import load_expert
+
+    path = tmp_path_factory.mktemp("pendulum-pool") / "pool.npz"
+    expert = load_expert(PENDULUM)
+    return demos.save(path, demos.record(PENDULUM, expert, demos.POOL_SIZE, demos.POOL_SEED))
+
+
+def _copy_pendulum_pool(pool: Path) -> None:
+    """Put a copy of `pool` where the bench cache (`bench.paths.CACHE_DIR`, as patched now)
+    keeps the pendulum's pool."""
+    from bench import demos
+
+    path = demos.pool_path(PENDULUM)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    shutil.copyfile(pool, path)
 
 
 @pytest.fixture(scope="session")
