@@ -101,11 +101,10 @@ def pendulum_pool(tmp_path_factory) -> Path:
     tests train on it, and recording it costs ~10 s of CPU, which a dozen tests each paid when
     every test recorded its own. A copy goes into each test's cache, so none sees another's."""
     from bench import demos
-    from bench.experts import load_expert
 
-    path = tmp_path_factory.mktemp("pendulum-pool") / "pool.npz"
-    expert = load_expert(PENDULUM)
-    return demos.save(path, demos.record(PENDULUM, expert, demos.POOL_SIZE, demos.POOL_SEED))
+    with pytest.MonkeyPatch.context() as mp:  # recorded as a user's cache records it
+        mp.setattr("bench.paths.CACHE_DIR", tmp_path_factory.mktemp("pendulum-pool"))
+        return demos.ensure_pool(PENDULUM)
 
 
 def _copy_pendulum_pool(pool: Path) -> None:
