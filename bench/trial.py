@@ -25,10 +25,8 @@ from bench import demos, envs, experts, minari_io, policies, registry, state_mat
 from bench.pixels import PixelConfig, VideoBeside
 from bench.rl.rollout import evaluate
 from bench.snapshots import SnapshotPlan, TrialPaused
-from bench.types import CurvePoint, TrialResult, TrialSpec
+from bench.types import CURVE_POINTS, CurvePoint, TrialResult, TrialSpec
 
-CURVE_POINTS = 10
-"""Learning-curve evaluations per trial (at most; when the algorithm offers checkpoints)."""
 CURVE_EPISODES = 5
 """Episodes per learning-curve point; the final evaluation uses the suite's eval_episodes."""
 EVAL_SEED = 100_000
@@ -288,7 +286,8 @@ def run_trial(
     tally = StepTally()
     eval_seed = EVAL_SEED + 1000 * spec.seed
     eval_envs: list[gym.Env] = []
-    logger = TrialLogger(eval_envs, eval_seed, every=max(1, spec.budget // CURVE_POINTS))
+    points = spec.curve_points or CURVE_POINTS
+    logger = TrialLogger(eval_envs, eval_seed, every=max(1, spec.budget // points))
     if snapshots is not None:
         logger.snapshots = TrialSnapshots(snapshots, spec, tally, logger)
     given = reference = distance = saved = None

@@ -80,6 +80,11 @@ class ActionDemos:
         return obs, np.concatenate(self.actions)
 
 
+CURVE_POINTS = 10
+"""Learning-curve evaluations per trial unless its suite asks otherwise (at most; when the
+algorithm offers checkpoints)."""
+
+
 @dataclass(frozen=True)
 class TrialSpec:
     """Everything that determines one trial. Its id is a hash of all of it."""
@@ -105,10 +110,12 @@ class TrialSpec:
     frames; demonstrations are then the expert's video."""
     frame_size: int | None = None
     """Side in pixels of the frames of a pixel or video-reward trial (None: PixelConfig's 64)."""
+    curve_points: int | None = None
+    """Learning-curve evaluations during training (None: `CURVE_POINTS`)."""
 
     def canonical(self) -> str:
         spec = asdict(self)
-        for optional in ("label", "dataset", "observation", "frame_size"):
+        for optional in ("label", "dataset", "observation", "frame_size", "curve_points"):
             if spec[optional] is None:
                 del spec[optional]  # so specs from before these fields existed keep their ids
         return json.dumps(spec, sort_keys=True, separators=(",", ":"))

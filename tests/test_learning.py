@@ -36,7 +36,7 @@ def test_adversarial_learners_imitate_inverted_pendulum_from_one_demonstration(t
         f"name: learn\nenvs: {{{PENDULUM}: {{budget: 70000, trpo: {{n_envs: 16}},"
         " hyperparams: {disc_steps: 25}}}\n"
         f"demos: [1]\nalgorithms: [random, expert, {learner}]\nseeds: {SEEDS}\n"
-        "eval_episodes: 10\n",
+        "eval_episodes: 10\ncurve_points: 4\n",  # each point is 5 episodes of up to 1,000 steps
     )
     runs = df[df.algorithm == learner]
     assert len(runs) == len(SEEDS)
@@ -57,15 +57,15 @@ def test_adversarial_learners_imitate_inverted_pendulum_from_one_demonstration(t
         "terminations",
     } <= set(logs.key)
     curves = store.load_curves(tmp_path / "res")
-    assert len(curves[curves.algorithm == learner]) >= len(SEEDS) * 5
+    assert len(curves[curves.algorithm == learner]) >= len(SEEDS) * 4
 
 
 def test_sac_swings_up_the_pendulum():
     """The off-policy optimizer on its field's first check: gymnasium's Pendulum-v1 (random
-    -1,200 to -1,500; solved about -150). Measured at 10k steps, 64 x 64: -142, -649, -142 on
-    seeds 0-2 and -142, -143, -146 on 3-5 (the slow seed is still swinging up), and on the
-    disjoint seeds 6-11 -146, -142, -143, -146, -144, -140: a median above -300 with room to
-    spare, and no more than one slow seed."""
+    -1,200 to -1,500; solved about -150). Measured at 8k steps, 64 x 64: -142, -546, -142 on
+    seeds 0-2 and -144, -144, -146 on 3-5 (the slow seed is still swinging up), and on the
+    disjoint seeds 6-11 -176, -140, -169, -148, -143, -146: a median above -300 with room to
+    spare, and no more than one slow seed. (At 10k, seeds 0-11 were as good, no better.)"""
     import joblib
     import numpy as np
 
@@ -74,7 +74,7 @@ def test_sac_swings_up_the_pendulum():
 
 
 def _sac_pendulum(seed: int) -> float:
-    """Mean return of 5 episodes of SAC's deterministic actor after 10k steps on Pendulum-v1."""
+    """Mean return of 5 episodes of SAC's deterministic actor after 8k steps on Pendulum-v1."""
     import gymnasium as gym
     import numpy as np
 
@@ -82,6 +82,6 @@ def _sac_pendulum(seed: int) -> float:
     from bench.rl.rollout import evaluate
 
     cfg = sac.SACConfig(hidden=(64, 64), learning_starts=1000)
-    learner = sac.train(lambda s: gym.make("Pendulum-v1"), 10_000, seed, cfg)
+    learner = sac.train(lambda s: gym.make("Pendulum-v1"), 8_000, seed, cfg)
     envs = [gym.make("Pendulum-v1") for _ in range(5)]
     return float(np.mean(evaluate(sac.DeterministicActor(learner.actor), envs, 5, 1000)))

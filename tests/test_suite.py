@@ -11,6 +11,7 @@ import yaml
 from bench import paths, registry
 from bench.rl.trpo import TRPOConfig
 from bench.suite import DEMO_POOL_SIZE, RunnerSettings, SuiteError, expand, load_suite, select
+from bench.types import CURVE_POINTS
 
 PENDULUM = "InvertedPendulumBulletEnv-v0"
 HOPPER = "HopperBulletEnv-v0"
@@ -219,6 +220,7 @@ BAD = [
     # (change to the valid base suite, expected message after "x.yaml: ")
     (lambda r: r | {"sedes": 3}, "sedes: unknown key (expected one of name, envs, demos"),
     (lambda r: _drop(r, "envs"), "envs: missing (required)"),
+    (lambda r: r | {"curve_points": 0}, "curve_points: expected a value >= 1, got 0"),
     (lambda r: _set(r, ("envs", PENDULUM, "steps"), 5), f"envs.{PENDULUM}.steps: unknown key"),
     (
         lambda r: _set(r, ("envs", PENDULUM, "budget"), "lots"),
@@ -596,3 +598,14 @@ def test_a_setting_added_later_keeps_the_ids_of_records_made_before_it(tmp_path)
     raw["algorithms"][2] = {"ifo": {"lr": 0.01, "scale": 2.0}}
     changed = [s for s in expand(load_suite(write(tmp_path, raw))) if s.algorithm == "ifo"]
     assert not {s.trial_id for s in changed} & set(before)  # away from its default: new trials
+
+
+def test_curve_points_sets_the_curves_resolution_and_its_default_keeps_the_ids(tmp_path):
+    raw = base() | {"name": "s"}
+    plain = expand(load_suite(write(tmp_path, raw)))
+    assert {s.curve_points for s in plain} == {None}  # None: the runner's CURVE_POINTS
+    spelled = expand(load_suite(write(tmp_path, raw | {"curve_points": CURVE_POINTS}, "d.yaml")))
+    assert [s.trial_id for s in spelled] == [s.trial_id for s in plain]
+    fewer = expand(load_suite(write(tmp_path, raw | {"curve_points": 3}, "f.yaml")))
+    assert {s.curve_points for s in fewer} == {3}
+    assert not {s.trial_id for s in fewer} & {s.trial_id for s in plain}  # other records

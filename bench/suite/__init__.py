@@ -22,6 +22,7 @@ A suite names everything one experiment runs::
       - gaifo: {disc_lr: 0.001}
     seeds: 10              # a count (seeds 0..n-1) or a list of distinct ints >= 0; default 10
     eval_episodes: 10      # episodes per evaluation; default 10
+    curve_points: 10       # learning-curve evaluations per trial (5 episodes each); default 10
     runner: {jobs: 2, backend: loky}   # optional; jobs >= 1 or -1 (all cores), backend loky|dask;
                            # first: [gaifo, gail] runs those algorithms' trials before the rest
 

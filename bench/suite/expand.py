@@ -11,7 +11,7 @@ from typing import Any
 from bench import registry
 from bench.rl.trpo import TRPOConfig
 from bench.suite.types import AlgorithmEntry, EnvSettings, Suite, SuiteError
-from bench.types import TrialSpec
+from bench.types import CURVE_POINTS, TrialSpec
 
 
 def expand(suite: Suite) -> list[TrialSpec]:
@@ -99,6 +99,8 @@ def _spec(
         dataset=env.dataset,
         observation=env.observation,
         frame_size=env.frame_size,
+        # the default is left out of the spec, so its trials keep the ids they had before
+        curve_points=None if suite.curve_points == CURVE_POINTS else suite.curve_points,
     )
 
 

@@ -134,7 +134,16 @@ def _suite(raw: Any, default_name: str) -> Suite:
                 f"{', '.join(map(repr, unknown))} is no algorithm or label of the suite"
                 f" ({', '.join(sorted(names))})",
             )
-    suite = Suite(name, envs, file.demos, algorithms, file.seeds, file.eval_episodes, runner)
+    suite = Suite(
+        name,
+        envs,
+        file.demos,
+        algorithms,
+        file.seeds,
+        file.eval_episodes,
+        runner,
+        file.curve_points,
+    )
     checks.check_budgets(suite)
     return suite
 

@@ -15,6 +15,7 @@ from pydantic import BaseModel, ConfigDict, Field, JsonValue, model_validator
 
 from bench import validate
 from bench.suite.checks import Invalid, joined
+from bench.types import CURVE_POINTS
 from bench.validate import show
 
 NAME_PATTERN = r"^[A-Za-z0-9][A-Za-z0-9._-]*$"  # it becomes a folder name
@@ -114,6 +115,7 @@ class SuiteFile(BaseModel):
     `bench.suite.load`, which knows each algorithm's settings."""
     seeds: Seeds = (0, 1, 2, 3, 4, 5, 6, 7, 8, 9)
     eval_episodes: Count = 10
+    curve_points: Count = CURVE_POINTS
     runner: RunnerFile = RunnerFile()
 
 

@@ -6,6 +6,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from bench.errors import BadInput
+from bench.types import CURVE_POINTS
 
 
 class SuiteError(BadInput, ValueError):
@@ -78,3 +79,4 @@ class Suite:
     seeds: tuple[int, ...]
     eval_episodes: int = 10
     runner: RunnerSettings = RunnerSettings()
+    curve_points: int = CURVE_POINTS
