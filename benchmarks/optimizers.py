@@ -10,6 +10,7 @@ not necessarily on a quiet machine: the records say where they ran, not how load
 from __future__ import annotations
 
 import argparse
+import sys
 
 import pandas as pd
 
@@ -17,10 +18,16 @@ from bench import labels, markdown, normalize, stats, store
 
 
 def scores(folder: str, algorithm: str, n_demos: int) -> pd.DataFrame:
-    """One row per ok trial of `algorithm` at `n_demos` in `folder`: env_id, seed, budget,
-    normalized score and wall time."""
+    """One row per ok trial of `algorithm` at `n_demos` in `folder` (at 0 for a control, which
+    takes none): env_id, seed, budget, normalized score and wall time."""
     df = normalize.normalize(store.load(folder))
-    mine = df[(df["algorithm"] == algorithm) & (df["n_demos"] == n_demos) & (df["status"] == "ok")]
+    mine = df[(df["algorithm"] == algorithm) & (df["status"] == "ok")]
+    mine = mine[mine["n_demos"] == (0 if (mine["n_demos"] == 0).all() else n_demos)]
+    if mine.empty:
+        print(
+            f"{folder}:{algorithm}: no finished trial at {n_demos} demonstrations", file=sys.stderr
+        )
+        sys.exit(2)
     return mine[["env_id", "seed", "budget", "normalized", "wall_time"]]
 
 
@@ -67,7 +74,10 @@ def main() -> None:
     ]
     header = ["env", "folder:algorithm", "IQM [95% CI] (seeds)", "env steps", "min per trial"]
     print(markdown.table(pd.DataFrame(rows, columns=header), right=header[3:]))
-    print(f"\n{args.demos} demonstrations; each side normalized with its own folder's references.")
+    print(
+        f"\n{args.demos} demonstrations (controls: none); each side normalized with its own"
+        " folder's references."
+    )
 
 
 if __name__ == "__main__":
