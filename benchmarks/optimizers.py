@@ -21,8 +21,8 @@ def scores(folder: str, algorithm: str, n_demos: int) -> pd.DataFrame:
     """One row per ok trial of `algorithm` at `n_demos` in `folder` (at 0 for a control, which
     takes none): env_id, seed, budget, normalized score and wall time."""
     df = normalize.normalize(store.load(folder))
-    mine = df[(df["algorithm"] == algorithm) & (df["status"] == "ok")]
-    mine = mine[mine["n_demos"] == (0 if (mine["n_demos"] == 0).all() else n_demos)]
+    at_count = (df["n_demos"] == n_demos) | normalize.demo_free(df)
+    mine = df[(df["algorithm"] == algorithm) & (df["status"] == "ok") & at_count]
     if mine.empty:
         print(
             f"{folder}:{algorithm}: no finished trial at {n_demos} demonstrations", file=sys.stderr
