@@ -55,10 +55,12 @@ def main() -> None:
     parser.add_argument("--demos", type=int, default=5)
     parser.add_argument("--reps", type=int, default=2000)
     args = parser.parse_args()
-    tables = {}
+    # Every side is read (and one with no finished trial refused) before any bootstrap runs.
+    picked = {}
     for side in args.sides:
         folder, _, algorithm = side.rpartition(":")
-        tables[side] = summary(scores(folder, algorithm, args.demos), args.reps)
+        picked[side] = scores(folder, algorithm, args.demos)
+    tables = {side: summary(rows, args.reps) for side, rows in picked.items()}
     envs = labels.env_order(set().union(*(set(t["env_id"]) for t in tables.values())))
     rows = [
         [
