@@ -113,11 +113,13 @@ class CostModel:
         price = self.price(spec)[0]
         return None if price is None else price * (1 - self.done_before.get(spec.trial_id, 0.0))
 
-    def priority(self, spec: TrialSpec) -> tuple[int, float]:
-        """Higher runs sooner: unpriced kinds first (by budget, to learn their cost), then by
+    def priority(self, spec: TrialSpec) -> tuple[bool, int, float]:
+        """Higher runs sooner: trials resuming from a snapshot first (finish work begun before
+        starting new work), then unpriced kinds (by budget, to learn their cost), then by
         expected seconds."""
+        resuming = self.done_before.get(spec.trial_id, 0.0) > 0
         seconds = self.seconds(spec)
-        return (1, float(spec.budget)) if seconds is None else (0, seconds)
+        return (resuming, 1, float(spec.budget)) if seconds is None else (resuming, 0, seconds)
 
     def time_left(self, specs: Iterable[TrialSpec], workers: int) -> str:
         """What `specs` should take on `workers` cores, for a progress bar: "~2.5 h", with

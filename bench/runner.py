@@ -1,6 +1,6 @@
 """Run a suite's trials in parallel: `run_suite` hands each pending trial (`bench.trial`) to
 a joblib worker (loky here, dask on a cluster): the suite's `runner.first` algorithms before the
-rest, and longest first within each (`bench.costs`).
+rest, and within each trials resuming from a snapshot first, then the longest (`bench.costs`).
 
 The driver prepares each trial's inputs (demonstrations, or the expert) and
 ships them with it, so workers need no files: that is what lets the dask
@@ -57,8 +57,8 @@ def _jobs(
     snapshot_plan: SnapshotPlan | None = None,
 ) -> Iterator:
     """The trials as joblib calls: those of the algorithms `first` (names or labels) before the
-    others; within each group, kinds with nothing to go by first (to learn their cost), then
-    the dearest, so the last to finish are short. Under a time `limit`, those that still fit as
+    others; within each group, trials resuming from a snapshot first, then kinds with nothing
+    to go by (to learn their cost), then the dearest, so the last to finish are short. Under a time `limit`, those that still fit as
     each starts, the dearest first (never an unpriced one); once none does, those that can pause
     at the limit (`registry.Algorithm.resumable`, with a `snapshot_plan`) while that is worth
     it (`TimeLimit.worth_pausing`); then none."""

@@ -162,6 +162,19 @@ def test_dispatch_runs_unseen_kinds_then_the_costliest_first():
     assert order[:2] == oracle[::-1] and set(order[2:]) == {dear, unseen, cheap}
 
 
+def test_trials_resuming_from_a_snapshot_run_before_new_ones():
+    def spec(algorithm: str, seed: int, budget: int = 1000) -> TrialSpec:
+        return TrialSpec("t", PENDULUM, algorithm, 0, seed, budget, 1)
+
+    dear, resumed, unseen = spec("survival", 1), spec("random", 1), spec("expert", 0)
+    costs = CostModel.of([finished(spec("survival", 0), 10.0), finished(spec("random", 0), 1.0)])
+    costs.done_before = {resumed.trial_id: 0.9}  # 0.1 s left: the cheapest, yet it goes first
+    assert [job[1][0] for job in _jobs([dear, unseen, resumed], costs)] == [resumed, unseen, dear]
+    # The suite's `runner.first` algorithms still go before any other.
+    order = [job[1][0] for job in _jobs([dear, resumed], costs, first={"survival"})]
+    assert order == [dear, resumed]
+
+
 def test_a_time_limit_starts_the_dearest_trial_that_still_fits_and_then_stops():
     # Survival at 0.01 s per step: 50, 30 and 20 s; gaifo never timed.
     specs = [
