@@ -162,6 +162,8 @@ def clone(
     resumable=True,
     description="BCO(alpha): inverse dynamics labels the demos, then behavioral cloning",
     min_budget=lambda config: config.pre_demo_steps,
+    family="trpo",
+    label="BCO",
 )
 def train(
     task: Task, demos: Demos, budget: int, seed: int, logger: Logger, config: BCOConfig

@@ -13,7 +13,12 @@ class ExpertConfig:
 
 
 @register(
-    "expert", config=ExpertConfig, inputs="expert", description="the demonstrator itself (score 1)"
+    "expert",
+    config=ExpertConfig,
+    inputs="expert",
+    description="the demonstrator itself (score 1)",
+    role="expert",
+    label="Expert",
 )
 def train(
     task: Task, demos: Policy, budget: int, seed: int, logger: Logger, config: ExpertConfig

@@ -24,6 +24,8 @@ def state_transition(s: torch.Tensor, a: torch.Tensor, s_next: torch.Tensor) -> 
     pixels=True,
     video_reward=True,
     min_budget=one_batch,
+    family="trpo",
+    label="GAIfO",
 )
 def train(
     task: Task, demos: Demos, budget: int, seed: int, logger: Logger, config: AdversarialConfig

@@ -24,6 +24,8 @@ def state_action(s: torch.Tensor, a: torch.Tensor, s_next: torch.Tensor) -> torc
     pixels=True,
     video_reward=True,
     min_budget=one_batch,
+    family="trpo",
+    label="GAIL",
 )
 def train(
     task: Task,

@@ -202,6 +202,8 @@ def train_on_reward(
     resumable=True,
     description="GAIfO on SAC with absorbing states (DACfO): D on (s, s')",
     min_budget=sac_budget,
+    family="sac",
+    label="GAIfO (SAC)",
 )
 def train_gaifo(task: Task, demos: Demos, budget: int, seed: int, logger: Logger, config) -> Policy:
     return train_offpolicy_adversarial(
@@ -216,6 +218,8 @@ def train_gaifo(task: Task, demos: Demos, budget: int, seed: int, logger: Logger
     resumable=True,
     description="GAIL on SAC with absorbing states (DAC): D on (s, a)",
     min_budget=sac_budget,
+    family="sac",
+    label="GAIL (SAC)",
 )
 def train_gail(
     task: Task, demos: ActionDemos, budget: int, seed: int, logger: Logger, config
@@ -232,6 +236,9 @@ def train_gail(
     resumable=True,
     description="control: SAC on +1 per step alive, no demos",
     min_budget=sac_budget,
+    role="floor",
+    family="sac",
+    label="Survival (SAC)",
 )
 def train_survival(task: Task, demos: None, budget: int, seed: int, logger: Logger, config):
     # +1 for every real step (the one into the absorbing state included), 0 on the loop
@@ -245,6 +252,9 @@ def train_survival(task: Task, demos: None, budget: int, seed: int, logger: Logg
     resumable=True,
     description="control: SAC on the env's reward, no demos",
     min_budget=sac_budget,
+    role="ceiling",
+    family="sac",
+    label="Oracle (SAC)",
 )
 def train_oracle(task: Task, demos: None, budget: int, seed: int, logger: Logger, config):
     return train_on_reward(task, budget, seed, logger, config, None)

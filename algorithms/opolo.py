@@ -284,6 +284,8 @@ class OPOLO(stateful.Stateful):
     resumable=True,
     description="OPOLO: off-policy GAIfO on TD3, dual form, inverse-action regularizer",
     min_budget=sac_budget,
+    family="td3",
+    label="OPOLO",
 )
 def train(task: Task, demos: Demos, budget: int, seed: int, logger: Logger, config) -> Policy:
     learner = OPOLO(task, demos, config, seed)

@@ -20,6 +20,9 @@ from bench.registry import Logger, Policy, Task, register
     description="control: TRPO on the env's reward, no demos",
     pixels=True,
     min_budget=one_batch,
+    role="ceiling",
+    family="trpo",
+    label="Oracle",
 )
 def train(
     task: Task, demos: None, budget: int, seed: int, logger: Logger, config: ImitationTRPOConfig

@@ -31,6 +31,8 @@ class UniformPolicy:
     inputs="none",
     description="uniform random actions (score 0)",
     pixels=True,
+    role="random",
+    label="Random",
 )
 def train(
     task: Task, demos: None, budget: int, seed: int, logger: Logger, config: RandomConfig

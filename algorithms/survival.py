@@ -18,6 +18,9 @@ from bench.registry import Logger, Policy, Task, register
     description="control: TRPO on +1 per step, no demos",
     pixels=True,
     min_budget=one_batch,
+    role="floor",
+    family="trpo",
+    label="Survival",
 )
 def train(
     task: Task, demos: None, budget: int, seed: int, logger: Logger, config: ImitationTRPOConfig

@@ -164,6 +164,8 @@ def demo_targets(embed: Embedding, demos: Demos) -> torch.Tensor:
     pixels=True,
     video_reward=True,
     min_budget=one_batch,
+    family="trpo",
+    label="TCN",
 )
 def train(
     task: Task, demos: Demos, budget: int, seed: int, logger: Logger, config: TCNConfig

@@ -18,22 +18,12 @@ import numpy as np
 import pandas as pd
 
 from bench import labels, stats
-from bench.normalize import (
-    CEILINGS,
-    EXPERT,
-    ORACLE,
-    RANDOM,
-    REFERENCES,
-    SURVIVAL,
-    demo_free,
-    method,
-    optimizer_of,
-)
+from bench.labels import Names, is_reference
+from bench.normalize import EXPERT, RANDOM, demo_free
 
 TARGET = "gaifo"
-"""The algorithm whose probability of improvement over the others is reported."""
-CONTROL = SURVIVAL
-"""The no-demonstration control every other learner is also compared with."""
+"""The learner whose probability of improvement over the others a report gives: the
+benchmark's reference learner, a question the report asks rather than a role."""
 POOLED = "pooled"
 """env_id of per_env.csv's rows over every env (aggregates.csv's and improvement.csv's numbers)."""
 TAUS = 81
@@ -64,70 +54,57 @@ STATE_MATCH_COLUMNS = [
 
 def demo_counts(df: pd.DataFrame) -> list[int]:
     """The demonstration counts the learners ran with; [0] when every learner is demonstration-free."""
-    learners = df[~df["algorithm"].isin(REFERENCES)]
+    learners = df[~is_reference(df)]
     counts = sorted(int(n) for n in learners["n_demos"].unique() if n > 0)
     return counts or ([0] if len(learners) else [])
 
 
 def competitors(df: pd.DataFrame, n_demos: int) -> list[str]:
     """Learners with trials at `n_demos`, plus the demonstration-free ones (controls), in plot order."""
-    learners = df[~df["algorithm"].isin(REFERENCES)]
+    learners = df[~is_reference(df)]
     here = learners["n_demos"] == n_demos
     return labels.algorithm_order(set(learners.loc[here | demo_free(learners), "algorithm"]))
 
 
-def methods(df: pd.DataFrame) -> dict[str, str]:
-    """Shown name -> registered algorithm (the name itself in frames without `method`)."""
-    return dict(zip(df["algorithm"], method(df), strict=True))
-
-
-def ceilings_among(names: Collection[str], registered: dict[str, str]) -> list[str]:
-    """Which of `names` are oracles (of either optimizer, labelled variants included)."""
-    return [a for a in names if registered.get(a) in CEILINGS]
-
-
-def improvement_pairs(
-    names: Collection[str], ceilings: Collection[str] = (ORACLE,)
-) -> list[tuple[str, str]]:
-    """The (a, b) whose P(a > b) a report gives: GAIfO against every other learner, then every
-    other learner against the survival control (did it learn from the demonstrations at all?).
-    The oracle's `ceilings` are references, read as fractions (`oracle_fractions`), not rivals."""
-    ordered = labels.in_order([n for n in names if n not in ceilings])
+def improvement_pairs(names: Collection[str], shown: Names) -> list[tuple[str, str]]:
+    """The (a, b) whose P(a > b) a report gives: GAIfO against every other learner and floor,
+    then every other learner against the floor of its own family (did it learn from the
+    demonstrations at all?). The ceilings are read as fractions (`oracle_fractions`), not
+    rivals."""
+    ordered = shown.in_order(n for n in names if shown[n].role != "ceiling")
     pairs = [(TARGET, other) for other in ordered if other != TARGET] if TARGET in names else []
-    if CONTROL in names:
-        pairs += [(a, CONTROL) for a in ordered if a not in (TARGET, CONTROL)]
+    for a in shown.with_role(ordered, "learner"):
+        floor = control_of(a, "floor", names, shown)
+        if a != TARGET and floor is not None:
+            pairs.append((a, floor))
     return pairs
 
 
-def ceiling_of(learner: str, methods: dict[str, str]) -> str | None:
-    """The oracle variant `learner` is read against, among its optimizer's oracles
-    (`oracle` for TRPO learners, `oracle-sac` for SAC's): the one whose label shares the
-    learner's variant suffix (gaifo-b1024 -> oracle-b1024), else the plain one, else None.
-    `methods`: shown name -> registered algorithm, for every name present."""
-    registered = methods.get(learner, learner)
-    family = optimizer_of(registered)
-    oracles = {
-        name: m for name, m in methods.items() if m in CEILINGS and optimizer_of(m) == family
-    }
-    suffix = learner.removeprefix(registered)
-    for name, m in oracles.items():
-        if suffix and name == f"{m}{suffix}":
-            return name
-    plain = [name for name, m in oracles.items() if name == m]
+def control_of(name: str, role: str, names: Collection[str], shown: Names) -> str | None:
+    """The control of `role` ("floor" or "ceiling") among `names` that `name` is read against:
+    one of its own optimizer family, the one whose label shares its variant suffix
+    (gaifo-b1024 -> oracle-b1024) if any, else the family's plain one, else None."""
+    me = shown[name]
+    if me.family is None:
+        return None
+    mine = [n for n in names if shown[n].role == role and shown[n].family == me.family]
+    suffix = name.removeprefix(me.method)
+    for n in mine:
+        if suffix and n == f"{shown[n].method}{suffix}":
+            return n
+    plain = [n for n in mine if n == shown[n].method]
     return plain[0] if plain else None
 
 
-def oracle_fractions(
-    scores: dict[str, np.ndarray], methods: dict[str, str], reps: int = 2000
-) -> pd.DataFrame:
-    """Each learner's IQM as a fraction of its oracle's (`ceiling_of`), with a 95% bootstrap CI,
-    and its worst seed as a fraction of the same IQM (a low bar's mean can hide one seed that
-    never took off): algorithm, other (the oracle), estimate, lo, hi, worst. Empty where no
-    oracle ran."""
+def oracle_fractions(scores: dict[str, np.ndarray], shown: Names, reps: int = 2000) -> pd.DataFrame:
+    """Each learner's IQM as a fraction of its ceiling's (`control_of`), with a 95% bootstrap
+    CI, and its worst seed as a fraction of the same IQM (a low bar's mean can hide one seed
+    that never took off): algorithm, other (the ceiling), estimate, lo, hi, worst. Empty where
+    no ceiling of its family ran."""
     rows = []
     for i, name in enumerate(scores):
-        ceiling = ceiling_of(name, methods)
-        if methods.get(name) in CEILINGS or ceiling is None or ceiling not in scores:
+        ceiling = control_of(name, "ceiling", scores, shown)
+        if shown[name].role == "ceiling" or ceiling is None:
             continue
         ratio = stats.iqm_ratio(scores[name], scores[ceiling], reps=reps, seed=i)
         worst = float(np.min(scores[name]) / stats.iqm(np.ravel(scores[ceiling])))
@@ -196,7 +173,7 @@ def count_statistics(df: pd.DataFrame, n: int, reps: int) -> CountStatistics:
         seeds=[scores[a].shape[0] for a in aggregate["algorithm"]],
         envs=[scores[a].shape[1] for a in aggregate["algorithm"]],
     )
-    pairs = improvement_pairs(scores, ceilings_among(scores, methods(df)))
+    pairs = improvement_pairs(scores, Names.of(df))
     improvement = stats.improvement_of_pairs(scores, pairs, reps=reps) if pairs else pd.DataFrame()
     everything = np.concatenate([s.ravel() for s in scores.values()])
     taus = np.linspace(min(0.0, everything.min()), max(1.0, everything.max()), TAUS)
@@ -220,14 +197,14 @@ def per_env_statistics(df: pd.DataFrame, n: int, reps: int) -> pd.DataFrame:
         for r in iqm[iqm["metric"] == "iqm"].itertuples():
             seeds = len(scores[r.algorithm])
             rows.append((n, env_id, "iqm", r.algorithm, "", seeds, r.estimate, r.lo, r.hi))
-        registered = methods(here)
-        pairs = improvement_pairs(scores, ceilings_among(scores, registered))
+        shown = Names.of(here)
+        pairs = improvement_pairs(scores, shown)
         for r in stats.improvement_of_pairs(scores, pairs, reps=reps).itertuples():
             seeds = min(len(scores[r.algorithm]), len(scores[r.other]))
             rows.append(
                 (n, env_id, "p_improvement", r.algorithm, r.other, seeds, r.estimate, r.lo, r.hi)
             )
-        for r in oracle_fractions(scores, registered, reps).itertuples():
+        for r in oracle_fractions(scores, shown, reps).itertuples():
             seeds = len(scores[r.algorithm])
             rows.append(
                 (n, env_id, "of_oracle", r.algorithm, r.other, seeds, r.estimate, r.lo, r.hi)
@@ -254,9 +231,11 @@ def state_match_statistics(df: pd.DataFrame, n: int, reps: int) -> pd.DataFrame:
     at `n` demonstrations: IQM distance with its CI, and P(GAIfO closer) (STATE_MATCH_COLUMNS;
     empty where the records hold no distance: pixels, or records from before)."""
     measured = df.dropna(subset=["state_distance"])
+    shown = Names.of(measured)
     names = [
         *competitors(measured, n),
-        *(a for a in (EXPERT, RANDOM) if a in set(measured["algorithm"])),
+        *shown.with_role(shown, EXPERT),
+        *shown.with_role(shown, RANDOM),
     ]
     try:
         distances = stats.score_dict(
@@ -271,7 +250,7 @@ def state_match_statistics(df: pd.DataFrame, n: int, reps: int) -> pd.DataFrame:
         negated = {a: -d for a, d in distances.items()}
         closer = stats.probability_of_improvement(negated, TARGET, reps=reps).set_index("other")
     rows = []
-    for a in labels.in_order(list(distances)):
+    for a in shown.in_order(list(distances)):
         d = iqm.loc[a]
         row = {"n_demos": n, "algorithm": a, "runs": "{} × {}".format(*distances[a].shape)}
         row |= {"iqm": d["estimate"], "lo": d["lo"], "hi": d["hi"]}

@@ -13,14 +13,15 @@ import pandas as pd
 
 from bench import labels
 from bench.comparisons import POOLED, TARGET
-from bench.normalize import EXPERT, ORACLE, RANDOM, REFERENCES
+from bench.labels import Names
+from bench.normalize import EXPERT, RANDOM
 
 MAX_LISTED = 20
 """Failed trials named one by one in the header; the rest are counted."""
 METRIC_LABELS = {"mean": "mean", "median": "median", "iqm": "IQM"}
 
 
-def aggregate_table(aggregates: pd.DataFrame, action_users: Collection[str] = ()) -> str:
+def aggregate_table(aggregates: pd.DataFrame, names: Names) -> str:
     """Markdown: a row per algorithm, a column per metric, each `estimate [lo, hi]`.
 
     `aggregates`: stats.aggregate_scores rows of one demo count, plus seeds and envs columns.
@@ -31,37 +32,35 @@ def aggregate_table(aggregates: pd.DataFrame, action_users: Collection[str] = ()
     ]
     cells = aggregates.set_index(["algorithm", "metric"])
     rows = []
-    for a in labels.in_order(aggregates["algorithm"]):
+    for a in names.in_order(aggregates["algorithm"]):
         first = cells.loc[(a, metrics[0])]
         runs = f"{int(first['seeds'])} × {int(first['envs'])}"
         values = [interval(*cells.loc[(a, m), ["estimate", "lo", "hi"]]) for m in metrics]
-        rows.append([labels.algorithm_label(a, action_users), runs, *values])
+        rows.append([names.label(a), runs, *values])
     return table(pd.DataFrame(rows, columns=header)) + "\n"
 
 
-def improvement_table(improvement: pd.DataFrame, action_users: Collection[str] = ()) -> str:
+def improvement_table(improvement: pd.DataFrame, names: Names) -> str:
     """Markdown: P(a > b) [95% CI], a row per (algorithm, other) pair of `improvement`."""
     rows = [
-        [pair_label(r.algorithm, r.other, action_users), interval(r.estimate, r.lo, r.hi)]
+        [pair_label(r.algorithm, r.other, names), interval(r.estimate, r.lo, r.hi)]
         for r in improvement.itertuples()
     ]
     return table(pd.DataFrame(rows, columns=["comparison", "P(improvement) [95% CI]"])) + "\n"
 
 
-def pair_label(a: str, b: str, action_users: Collection[str]) -> str:
-    return f"{labels.algorithm_label(a, action_users)} > {labels.algorithm_label(b, action_users)}"
+def pair_label(a: str, b: str, names: Names) -> str:
+    return f"{names.label(a)} > {names.label(b)}"
 
 
-def compare_table(
-    comparison: pd.DataFrame, run: str, reference: str, action_users: Collection[str] = ()
-) -> str:
+def compare_table(comparison: pd.DataFrame, run: str, reference: str, names: Names) -> str:
     """Markdown: per env, algorithm and demo count, IQM [95% CI] of the run and the reference,
     their difference and the verdict (stats.compare); then how many rows agree."""
     header = ["env", "algorithm", "demos", f"run ({run})", f"reference ({reference})"]
     header += ["run - ref [95% CI]", "verdict"]
     envs, algorithms = (
         labels.env_order(comparison["env_id"]),
-        labels.in_order(comparison["algorithm"]),
+        names.in_order(comparison["algorithm"]),
     )
     ordered = comparison.sort_values(
         ["env_id", "algorithm", "n_demos"],
@@ -74,7 +73,7 @@ def compare_table(
     rows = [
         [
             labels.env_label(r["env_id"]),
-            labels.algorithm_label(r["algorithm"], action_users),
+            names.label(r["algorithm"]),
             str(r["n_demos"]),
             interval(r["run_iqm"], r["run_lo"], r["run_hi"]) + f" ({r['run_seeds']})",
             interval(r["ref_iqm"], r["ref_lo"], r["ref_hi"]) + f" ({r['ref_seeds']})",
@@ -104,15 +103,15 @@ def seen(df: pd.DataFrame, env_id: str) -> str:
 def header(df: pd.DataFrame, results_dir: Path) -> str:
     suites = ", ".join(sorted(map(str, df["suite"].unique())))
     envs = labels.env_order(df["env_id"].unique())
-    learners = labels.algorithm_order(df["algorithm"].unique())
-    references = [a for a in (RANDOM, EXPERT) if a in set(df["algorithm"])]
+    names = Names.of(df)
+    learners = names.order(df["algorithm"].unique())
+    references = [*names.with_role(names, RANDOM), *names.with_role(names, EXPERT)]
     ok = df[df["status"] == "ok"]
     per_cell = ok.groupby(["env_id", "algorithm", "n_demos"]).size()
     seeds = range_text(per_cell) if len(per_cell) else "0"
     failed = df[df["status"] != "ok"]
     counts = [int(n) for n in sorted(df.loc[df["n_demos"] > 0, "n_demos"].unique())]
-    starred = labels.action_users(df)
-    label = lambda a: labels.algorithm_label(a, starred)  # noqa: E731
+    label = names.label
     rows = [
         ("suite", suites),
         ("results", f"`{results_dir}`"),
@@ -140,7 +139,7 @@ def header(df: pd.DataFrame, results_dir: Path) -> str:
     return "\n".join(lines)
 
 
-def how_to_read(learners: Sequence[str], reps: int, action_users: Collection[str]) -> str:
+def how_to_read(learners: Sequence[str], reps: int, names: Names) -> str:
     items = [
         "**Normalized score**: per env, 0 is the mean return of the random policy and 1 that of "
         "the expert that recorded the demonstrations (raw returns in the last section), so envs "
@@ -160,13 +159,13 @@ def how_to_read(learners: Sequence[str], reps: int, action_users: Collection[str
         "**Learning curves**: the IQM over seeds at each evaluation during training, with its "
         "95% CI as a band.",
     ]
-    if "survival" in learners:
+    if names.with_role(learners, "floor"):
         items.append(
             "**Survival** is a control: it gets no demonstrations and is rewarded +1 per step "
             "alive, so the same runs appear at every demonstration count. A learner that does "
             "not beat it has not shown that it learned from the demonstrations."
         )
-    if ORACLE in learners:
+    if names.with_role(learners, "ceiling"):
         items.append(
             "**Oracle** is the upper control: the imitators' optimizer with their settings, "
             "trained on the env's own reward, no demonstrations. It is drawn as a line, not a bar. "
@@ -175,7 +174,7 @@ def how_to_read(learners: Sequence[str], reps: int, action_users: Collection[str
             "whether every seed got there; the gap from the oracle to the expert is the "
             "optimizer's."
         )
-    if set(action_users) & set(learners):
+    if names.starred(learners):
         items.append(
             "**\\*** marks algorithms that see the expert's actions, which imitation from "
             "observation does not."
@@ -188,9 +187,7 @@ def how_to_read(learners: Sequence[str], reps: int, action_users: Collection[str
     )
 
 
-def at_a_glance(
-    aggregates: pd.DataFrame, improvement: pd.DataFrame, action_users: Collection[str]
-) -> str:
+def at_a_glance(aggregates: pd.DataFrame, improvement: pd.DataFrame, names: Names) -> str:
     """IQM of every learner, and GAIfO's probability of improvement, across demo counts."""
     if aggregates.empty:
         return ""
@@ -198,8 +195,8 @@ def at_a_glance(
     columns = [labels.demos_label(n) for n in counts]
     iqm = aggregates[aggregates["metric"] == "iqm"].set_index(["algorithm", "n_demos"])
     rows = [
-        [labels.algorithm_label(a, action_users), *by_count(iqm, (a,), counts)]
-        for a in labels.in_order(aggregates["algorithm"])
+        [names.label(a), *by_count(iqm, (a,), counts)]
+        for a in names.in_order(aggregates["algorithm"])
     ]
     # Each count pools only the envs where every learner has runs: while a suite is partly run,
     # counts can pool different envs, and their columns then do not compare.
@@ -216,13 +213,13 @@ def at_a_glance(
     if len(improvement):
         pi = improvement.set_index(["algorithm", "other", "n_demos"])
         pairs = dict.fromkeys(zip(improvement["algorithm"], improvement["other"], strict=True))
-        rows = [[pair_label(a, b, action_users), *by_count(pi, (a, b), counts)] for a, b in pairs]
+        rows = [[pair_label(a, b, names), *by_count(pi, (a, b), counts)] for a, b in pairs]
         header = ["P(improvement) [95% CI]", *columns]
         lines += ["", table(pd.DataFrame(rows, columns=header))]
     return "\n".join(lines)
 
 
-def env_by_count(per_env: pd.DataFrame, action_users: Collection[str]) -> str:
+def env_by_count(per_env: pd.DataFrame, names: Names) -> str:
     """Each learner's IQM on each env at every demo count, in one table, and GAIfO's
     probabilities of improvement over the others: a row per learner (or pair), a column per env,
     each cell its values at the counts in order ("-" where it has none): the numbers behind
@@ -246,12 +243,12 @@ def env_by_count(per_env: pd.DataFrame, action_users: Collection[str]) -> str:
         return row
 
     rows = [
-        [labels.algorithm_label(a, action_users), *cells(iqm[iqm["algorithm"] == a])]
-        for a in labels.in_order(iqm["algorithm"])
+        [names.label(a), *cells(iqm[iqm["algorithm"] == a])]
+        for a in names.in_order(iqm["algorithm"])
     ]
     rows += [
-        [pair_label(TARGET, other, action_users), *cells(pairs[pairs["other"] == other])]
-        for other in labels.in_order(pairs["other"])
+        [pair_label(TARGET, other, names), *cells(pairs[pairs["other"] == other])]
+        for other in names.in_order(pairs["other"])
     ]
     shown = " / ".join(str(n) for n in counts)
     header = [f"at {shown} demos", *(labels.env_label(e) for e in envs)]
@@ -280,8 +277,8 @@ def by_count(frame: pd.DataFrame, key: tuple, counts: Sequence[int]) -> list[str
 
 
 def references(df: pd.DataFrame) -> str:
-    refs = df[(df["status"] == "ok") & df["algorithm"].isin([RANDOM, EXPERT])]
-    summary = refs.groupby(["env_id", "algorithm"])["return"].agg(["mean", "std", "size"])
+    refs = df[(df["status"] == "ok") & df["role"].isin([RANDOM, EXPERT])]
+    summary = refs.groupby(["env_id", "role"])["return"].agg(["mean", "std", "size"])
     lines = [
         "## Reference returns",
         "",
@@ -317,17 +314,17 @@ def costs(df: pd.DataFrame) -> str:
         "trials x wall time.",
         "",
     ]
-    starred = labels.action_users(df)
+    names = Names.of(df)
     rows = []
     for env_id in labels.env_order(ok["env_id"].unique()):
         trials = ok[ok["env_id"] == env_id]
-        for algorithm in labels.in_order(trials["algorithm"]):
+        for algorithm in names.in_order(trials["algorithm"]):
             cell = trials[trials["algorithm"] == algorithm]
             budget = ", ".join(f"{b:,}" for b in sorted(cell["budget"].unique()))
             rows.append(
                 [
                     labels.env_label(env_id),
-                    labels.algorithm_label(algorithm, starred),
+                    names.label(algorithm),
                     budget,
                     str(len(cell)),
                     duration(cell["wall_time"].mean()),
@@ -354,20 +351,20 @@ def summary_table(df: pd.DataFrame) -> str:
     cells = agg.apply(lambda r: mean_std(r["mean"], r["std"]), axis=1)
     cells = cells.unstack("n_demos", fill_value="")
     demos = sorted(df["n_demos"].unique())
-    algos = labels.algorithm_order(df["algorithm"].unique()) + [
-        a for a in REFERENCES if a in set(df["algorithm"])
+    names = Names.of(df)
+    algos = names.order(df["algorithm"].unique()) + [
+        *names.with_role(names, RANDOM),
+        *names.with_role(names, EXPERT),
     ]
-    starred = labels.action_users(df)
     rows = [
-        [labels.env_label(env_id), labels.algorithm_label(a, starred)]
-        + cells.loc[(env_id, a), demos].tolist()
+        [labels.env_label(env_id), names.label(a)] + cells.loc[(env_id, a), demos].tolist()
         for env_id in labels.env_order(df["env_id"].unique())
         for a in algos
         if (env_id, a) in cells.index
     ]
     header = ["env", "algorithm"] + [labels.demos_label(n) for n in demos]
     lines = [table(pd.DataFrame(rows, columns=header))]
-    if starred:
+    if names.starred(algos):
         lines += ["", labels.ACTIONS_FOOTNOTE]
     return "\n".join(lines) + "\n"
 

@@ -2,9 +2,9 @@
 
     normalized = (R - R_random) / (R_expert - R_random)
 
-R_random and R_expert are the mean returns of the ok trials of the `random`
-and `expert` algorithms on that env, taken from the same frame, so a suite's
-numbers depend only on its own records.
+R_random and R_expert are the mean returns of the ok trials whose role is `random` and
+`expert` on that env, taken from the same frame, so a suite's numbers depend only on its own
+records.
 """
 
 from __future__ import annotations
@@ -14,27 +14,8 @@ import pandas as pd
 from bench.errors import BadInput
 
 RANDOM, EXPERT = "random", "expert"
-REFERENCES = (RANDOM, EXPERT)
-"""The reference algorithms that define 0 and 1; every other algorithm is a learner."""
-SURVIVAL, ORACLE = "survival", "oracle"
-"""The controls: the imitators' optimizer paid +1 per step alive (the floor), and on the env's
-own reward (the ceiling at this budget, that the imitators are read against)."""
-FLOORS = (SURVIVAL, "survival-sac")
-CEILINGS = (ORACLE, "oracle-sac")
-"""The controls of each optimizer (TRPO's, SAC's), by registered name."""
-CONTROLS = FLOORS + CEILINGS
-
-
-def optimizer_of(registered: str) -> str:
-    """The optimizer family of a registered algorithm, as its name says: "sac" for the
-    off-policy family ("gaifo-sac", "oracle-sac"), "" for the TRPO learners."""
-    return "sac" if registered.endswith("-sac") else ""
-
-
-def method(df: pd.DataFrame) -> pd.Series:
-    """Per row of `df`: the registered algorithm (column `method`; a labelled variant's label
-    is its `algorithm`), or `algorithm` in frames without it."""
-    return df["method"] if "method" in df else df["algorithm"]
+"""The roles of the references that define 0 and 1 (`bench.registry.Role`): the records' `role`
+says which trials they are, whatever their algorithms are called."""
 
 
 def demo_free(df: pd.DataFrame) -> pd.Series:
@@ -50,8 +31,8 @@ class NormalizationError(BadInput, ValueError):
 def reference_returns(df: pd.DataFrame) -> pd.DataFrame:
     """One row per env of `df`: env_id, random, expert (mean returns; NaN where missing)."""
     ok = df["status"] == "ok" if "status" in df else pd.Series(True, index=df.index)
-    refs = df[ok & df["algorithm"].isin([RANDOM, EXPERT])]
-    means = refs.groupby(["env_id", "algorithm"])["return"].mean().unstack("algorithm")
+    refs = df[ok & df["role"].isin([RANDOM, EXPERT])]
+    means = refs.groupby(["env_id", "role"])["return"].mean().unstack("role")
     envs = pd.Index(df["env_id"].unique(), name="env_id")
     return (
         means.reindex(index=envs, columns=[RANDOM, EXPERT]).rename_axis(columns=None).reset_index()

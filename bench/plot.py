@@ -24,30 +24,26 @@ from matplotlib.ticker import EngFormatter
 from bench.labels import (
     ACTIONS_FOOTNOTE,
     PAPER_ALGORITHMS,
-    action_users,
-    algorithm_label,
+    Names,
     algorithm_order,
     env_label,
     env_order,
+    is_reference,
 )
-from bench.normalize import CEILINGS, CONTROLS, FLOORS, REFERENCES, demo_free, method
+from bench.normalize import demo_free
+from bench.registry import CONTROL_ROLES
 
 """Normalized to 0 and 1 by construction: drawn as lines, not bars."""
 PALETTE = "colorblind"
 DPI = 200
 REFERENCE_LINES = {"random": ("0.45", "Random (0)"), "expert": ("0.1", "Expert (1)")}
 CONTROL_LINES = {
-    **{
-        floor: ({"linestyle": ":", "linewidth": 1.5}, "floor: paid to stay alive")
-        for floor in FLOORS
-    },
-    **{
-        top: ({"linestyle": "-.", "linewidth": 1.3}, "ceiling: the true reward") for top in CEILINGS
-    },
+    "floor": ({"linestyle": ":", "linewidth": 1.5}, "floor: paid to stay alive"),
+    "ceiling": ({"linestyle": "-.", "linewidth": 1.3}, "ceiling: the true reward"),
 }
 """The controls are references, not competitors: in Figure 2 each is a line across its panel
-at its mean over seeds with a band of one standard deviation, not a bar (by registered
-algorithm, so a labelled variant of one is drawn alike)."""
+at its mean over seeds with a band of one standard deviation, not a bar (by role, so a
+labelled variant of one, or a plugin's control, is drawn alike)."""
 
 
 # ---------------------------------------------------------------- order, names, colors
@@ -85,10 +81,11 @@ def draw_figure2(df: pd.DataFrame) -> Figure:
     oracle) are drawn as lines across the panel instead (CONTROL_LINES).
     Needs columns env_id, algorithm, n_demos, normalized.
     """
-    learners = df[~df["algorithm"].isin(REFERENCES)]
+    learners = df[~is_reference(df)]
     if learners.empty:
         raise ValueError("no trials of a learning algorithm to plot (only random/expert)")
-    is_control = method(learners).isin(CONTROLS)
+    names = Names.of(learners)
+    is_control = learners["role"].isin(CONTROL_ROLES)
     if is_control.all():  # nothing to set against them: the controls are the bars
         is_control = is_control & False
     controls, learners = learners[is_control], repeat_demo_free(learners[~is_control])
@@ -96,7 +93,6 @@ def draw_figure2(df: pd.DataFrame) -> Figure:
     algos = algorithm_order(learners["algorithm"].unique())
     demos = sorted(learners["n_demos"].unique())
     colors = algorithm_colors([*algos, *controls["algorithm"].unique()])
-    starred = action_users(learners)
 
     with sns.axes_style("whitegrid"), sns.plotting_context("paper"):
         fig, axes = _panels(len(envs), width=2.35, height=1.9)  # 3 across = 7 in, a page
@@ -116,7 +112,7 @@ def draw_figure2(df: pd.DataFrame) -> Figure:
                 legend=False,
                 ax=ax,
             )
-            _control_lines(ax, controls[controls["env_id"] == env_id], colors)
+            _control_lines(ax, controls[controls["env_id"] == env_id], colors, names)
             _reference_lines(ax)
             ax.set_title(env_label(env_id))
             ax.set_xlabel("")
@@ -124,20 +120,22 @@ def draw_figure2(df: pd.DataFrame) -> Figure:
             ax.grid(axis="x", visible=False)
         fig.supxlabel("Number of demonstration trajectories", fontsize="medium")
         fig.supylabel("Normalized return", fontsize="medium")
-        handles = [Patch(facecolor=colors[a], label=algorithm_label(a, starred)) for a in algos]
-        shown = dict(zip(controls["algorithm"], method(controls), strict=True))
+        handles = [Patch(facecolor=colors[a], label=names.label(a)) for a in algos]
         handles += [
             Line2D(
                 [],
                 [],
                 color=colors[a],
-                **CONTROL_LINES[shown[a]][0],
-                label=f"{algorithm_label(a)} ({CONTROL_LINES[shown[a]][1]})",
+                **CONTROL_LINES[names[a].role][0],
+                label=f"{names.label(a)} ({CONTROL_LINES[names[a].role][1]})",
             )
-            for a in algorithm_order(shown)
+            for a in algorithm_order(controls["algorithm"].unique())
         ]
         _legend_and_titles(
-            fig, handles, "Imitation performance vs. number of demonstrations", starred
+            fig,
+            handles,
+            "Imitation performance vs. number of demonstrations",
+            names.starred(algos),
         )
     return fig
 
@@ -150,9 +148,9 @@ def figure2(df: pd.DataFrame, out: str | Path) -> list[Path]:
 # ---------------------------------------------------------------- later-report figures
 
 
-def draw_iqm_curves(frame: pd.DataFrame, title: str, action_users: Collection[str] = ()) -> Figure:
+def draw_iqm_curves(frame: pd.DataFrame, title: str, names: Names) -> Figure:
     """Per env, IQM normalized return against env steps, band the 95% CI (from `stats.iqm_curves`).
-    `action_users` get a * in the legend."""
+    Legend labels from `names` (a * for those given expert actions)."""
     envs = env_order(frame["env_id"].unique())
     algos = algorithm_order(frame["algorithm"].unique())
     colors = algorithm_colors(algos)
@@ -172,20 +170,17 @@ def draw_iqm_curves(frame: pd.DataFrame, title: str, action_users: Collection[st
             ax.xaxis.set_major_formatter(EngFormatter(sep=""))  # 200k, 1M: no offset text
         fig.supxlabel("Environment steps", fontsize="medium")
         fig.supylabel("Normalized return (IQM)", fontsize="medium")
-        starred = set(action_users) & set(algos)
-        handles = [
-            Line2D([], [], color=colors[a], label=algorithm_label(a, starred)) for a in algos
-        ]
-        _legend_and_titles(fig, handles, title, starred)
+        handles = [Line2D([], [], color=colors[a], label=names.label(a)) for a in algos]
+        _legend_and_titles(fig, handles, title, names.starred(algos))
     return fig
 
 
 def draw_performance_profile(
-    profile: pd.DataFrame, title: str | None = None, action_users: Collection[str] = ()
+    profile: pd.DataFrame, names: Names, title: str | None = None
 ) -> Figure:
     """Score distributions from stats.performance_profile: fraction of runs above tau, with CI band.
     With a `title`, the legend goes under the axes, off the curves (as in the report).
-    `action_users` get a * in the legend."""
+    Legend labels from `names` (a * for those given expert actions)."""
     algos = algorithm_order(profile["algorithm"].unique())
     colors = algorithm_colors(algos)
     with sns.axes_style("whitegrid"), sns.plotting_context("paper"):
@@ -193,14 +188,14 @@ def draw_performance_profile(
         ax = fig.subplots()
         for a in algos:
             rows = profile[profile["algorithm"] == a].sort_values("tau")
-            label = algorithm_label(a, action_users)
+            label = names.label(a)
             ax.plot(rows["tau"], rows["fraction"], color=colors[a], label=label)
             ax.fill_between(rows["tau"], rows["lo"], rows["hi"], color=colors[a], alpha=0.2, lw=0)
         ax.set_xlabel(r"Normalized score $\tau$")
         ax.set_ylabel(r"Fraction of runs with score $> \tau$")
         ax.set_ylim(-0.02, 1.02)  # lines at exactly 0 or 1 stay visible
         ax.legend(frameon=False)
-        if set(action_users) & set(algos):
+        if names.starred(algos):
             ax.set_title(ACTIONS_FOOTNOTE, loc="right", fontsize="small", color="0.3")
         if title is not None:
             handles, labels = ax.get_legend_handles_labels()
@@ -259,12 +254,12 @@ def _panels(n: int, width: float, height: float) -> tuple[Figure, list[Axes]]:
     return fig, axes[:n]
 
 
-def _control_lines(ax: Axes, controls: pd.DataFrame, colors: dict) -> None:
+def _control_lines(ax: Axes, controls: pd.DataFrame, colors: dict, names: Names) -> None:
     """Each control (or labelled variant of one) of one env as a line at its mean normalized
     return over seeds, and a band of one standard deviation around it."""
     for name, rows in controls.groupby("algorithm"):
         mean, sd = rows["normalized"].mean(), rows["normalized"].std()
-        style = CONTROL_LINES[method(rows).iloc[0]][0]
+        style = CONTROL_LINES[names[name].role][0]
         ax.axhline(mean, color=colors[name], zorder=2.5, **style)
         if pd.notna(sd):
             ax.axhspan(mean - sd, mean + sd, color=colors[name], alpha=0.12, lw=0, zorder=0.4)
@@ -272,7 +267,7 @@ def _control_lines(ax: Axes, controls: pd.DataFrame, colors: dict) -> None:
 
 def _reference_lines(ax: Axes) -> None:
     """Dashed lines at 0 (random) and 1 (expert), both kept in view."""
-    for level, name in enumerate(REFERENCES):
+    for level, name in enumerate(REFERENCE_LINES):
         color, _ = REFERENCE_LINES[name]
         ax.axhline(level, color=color, linestyle="--", linewidth=1.0, zorder=0.5)
     lo, hi = ax.get_ylim()

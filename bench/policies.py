@@ -3,6 +3,8 @@
 A policy file is a plain dict of tensors and numbers (`DeterministicPolicy.state`), so it
 loads with `torch.load(..., weights_only=True)` and needs no class of a given version to be
 read: the networks are rebuilt from the sizes it holds, the normalizer's statistics included.
+Any policy that can say so is kept the same way, a plugin's too: one with a `state()` of
+tensors, numbers and lists, and a `from_state(state)` classmethod that rebuilds it.
 Workers send the bytes back with the result; the driver writes them, atomically, before the
 record, so every ok record of a learner has its policy. The references have none: random
 holds no weights, and the expert is `results/experts/<env>/policy.pt`.
@@ -10,8 +12,10 @@ holds no weights, and the expert is `results/experts/<env>/policy.pt`.
 
 from __future__ import annotations
 
+import importlib
 import io
 from pathlib import Path
+from typing import Any
 
 import torch
 
@@ -27,15 +31,22 @@ def path(results_dir: str | Path, trial_id: str) -> Path:
 
 
 KINDS = {"gaussian-mean": DeterministicPolicy, "sac-actor": DeterministicActor}
-"""What a file's `kind` rebuilds: the TRPO learners' mean policy, SAC's squashed-mean actor."""
+"""What a built-in file's `kind` rebuilds: the TRPO learners' mean policy, SAC's (and TD3's)
+squashed-mean actor. Any other policy's file names its class (CLASS: "module:qualname")."""
+CLASS = "class"
 
 
 def to_bytes(policy: object) -> bytes | None:
-    """The file's bytes for a network policy; None for one without weights (random)."""
-    if not isinstance(policy, tuple(KINDS.values())):
+    """The file's bytes for a policy that can be rebuilt (`state()` and `from_state`); None
+    for one that cannot (random's, which holds no weights, or a plain function)."""
+    cls = type(policy)
+    if not (callable(getattr(policy, "state", None)) and callable(getattr(cls, "from_state", None))):
         return None
+    state = policy.state()
+    if KINDS.get(state.get("kind")) is not cls:  # a plugin's: its file says what rebuilds it
+        state = {**state, CLASS: f"{cls.__module__}:{cls.__qualname__}"}
     buffer = io.BytesIO()
-    torch.save(policy.state(), buffer)
+    torch.save(state, buffer)
     return buffer.getvalue()
 
 
@@ -43,7 +54,13 @@ def write(results_dir: str | Path, trial_id: str, data: bytes) -> Path:
     return atomic.write_bytes(path(results_dir, trial_id), data)
 
 
-def load(file: str | Path) -> DeterministicPolicy | DeterministicActor:
+def load(file: str | Path) -> Any:
     """The policy saved in `file`, ready to act: numpy observations in, actions out."""
     state = torch.load(file, weights_only=True)
-    return KINDS[state["kind"]].from_state(state)
+    if CLASS not in state:
+        return KINDS[state["kind"]].from_state(state)
+    module, _, name = state[CLASS].partition(":")
+    cls: Any = importlib.import_module(module)
+    for part in name.split("."):
+        cls = getattr(cls, part)
+    return cls.from_state(state)

@@ -51,6 +51,20 @@ from bench.errors import BadInput
 from bench.pixels import PixelConfig
 
 Inputs = Literal["none", "states", "actions", "expert"]
+Role = Literal["learner", "floor", "ceiling", "random", "expert"]
+"""What an algorithm is in a comparison, declared at `register` and kept in every record, so
+analysis reads it from the records and never guesses it from a name:
+
+- "learner": imitates; scored, compared and drawn as a bar;
+- "floor": a control paid for staying alive, no demonstrations (what a learner scores without
+  imitating anything); drawn as a line;
+- "ceiling": a control on the env's true reward (what its optimizer reaches at the budget, that
+  learners of its family are read as fractions of); drawn as a line;
+- "random" and "expert": the references that define normalized 0 and 1 on each env.
+"""
+ROLES: tuple[Role, ...] = ("learner", "floor", "ceiling", "random", "expert")
+CONTROL_ROLES: tuple[Role, ...] = ("floor", "ceiling")
+REFERENCE_ROLES: tuple[Role, ...] = ("random", "expert")
 ENTRY_POINT_GROUP = "ifo_bench.algorithms"
 
 
@@ -174,6 +188,13 @@ class Algorithm:
     """Its trials save snapshots where the runner offers them (`Snapshots`) and resume from
     them, so a run under a time limit may start one that will not finish by then: it pauses at
     the limit, and the next run goes on from there."""
+    role: Role = "learner"
+    """What it is in a comparison (`Role`)."""
+    family: str | None = None
+    """The optimizer family whose controls it is read against ("trpo", "sac", "td3"): a
+    learner's ceiling is the ceiling of its own family. None: it has none (the references)."""
+    label: str = ""
+    """Its name in figures and reports ("GAIfO"); "" : its registered name."""
 
     @property
     def uses_actions(self) -> bool:
@@ -211,10 +232,18 @@ def register(
     video_reward: bool = False,
     min_budget: Callable[[Any], int] | None = None,
     resumable: bool = False,
+    role: Role = "learner",
+    family: str | None = None,
+    label: str = "",
 ) -> Callable[[TrainFn], TrainFn]:
-    """Decorator: register `train` under `name`."""
+    """Decorator: register `train` under `name`, as a `role` of the optimizer `family`, shown
+    as `label` (see `Algorithm`)."""
     if inputs not in ("none", "states", "actions", "expert"):
         raise ValueError(f"inputs must be none|states|actions|expert, not {inputs!r}")
+    if role not in ROLES:
+        raise ValueError(f"role must be one of {'|'.join(ROLES)}, not {role!r}")
+    if role in CONTROL_ROLES and not family:
+        raise ValueError(f"{name!r}: a {role} control needs the optimizer family it controls for")
     if not dataclasses.is_dataclass(config):
         raise TypeError(f"config of {name!r} must be a dataclass")
 
@@ -227,7 +256,18 @@ def register(
                 f"{_origin(train)}; rename one"
             )
         _ALGORITHMS[name] = Algorithm(
-            name, train, config, inputs, doc, pixels, video_reward, min_budget, resumable
+            name,
+            train,
+            config,
+            inputs,
+            doc,
+            pixels,
+            video_reward,
+            min_budget,
+            resumable,
+            role,
+            family,
+            label or name,
         )
         return train
 
@@ -267,6 +307,15 @@ def get(name: str) -> Algorithm:
             f"unknown algorithm {name!r} (registered: {', '.join(sorted(_ALGORITHMS))})"
         )
     return _ALGORITHMS[name]
+
+
+def describe(name: str) -> tuple[Role, str | None, str]:
+    """The role, family and label of `name` as registered now: for records written before
+    records said them. A name not registered here (a plugin not installed) is a learner of no
+    family, shown under its own name."""
+    _load_all()
+    algo = _ALGORITHMS.get(name)
+    return ("learner", None, name) if algo is None else (algo.role, algo.family, algo.label)
 
 
 def all_algorithms() -> dict[str, Algorithm]:

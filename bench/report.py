@@ -15,7 +15,6 @@ Nothing here trains or evaluates: it reads records and writes files.
 
 from __future__ import annotations
 
-from collections.abc import Collection
 from pathlib import Path
 from typing import NamedTuple
 
@@ -29,12 +28,8 @@ from bench.comparisons import (
     TARGET,
     demo_counts,
 )
-from bench.normalize import (
-    REFERENCES,
-    demo_free,
-    normalize,
-    reference_returns,
-)
+from bench.labels import Names, is_reference
+from bench.normalize import demo_free, normalize, reference_returns
 
 REPORT = "report.md"
 AGGREGATES_CSV = "aggregates.csv"
@@ -57,8 +52,8 @@ class WrittenReport(NamedTuple):
     """AGGREGATE_COLUMNS, as in aggregates.csv"""
     improvements: pd.DataFrame
     """IMPROVEMENT_COLUMNS, as in improvement.csv"""
-    action_users: frozenset[str]
-    """Algorithms the records say were given expert actions (marked * in the tables)."""
+    names: Names
+    """How the records name and describe each algorithm (a * for those given expert actions)."""
 
 
 def write_reports(
@@ -91,10 +86,10 @@ def write_report(results_dir: Path, out_dir: Path | None = None, reps: int = 200
     if trials.empty:
         raise FileNotFoundError(f"{store.trials_dir(results_dir)}: no readable trial record")
     df = normalize(trials)
-    starred = labels.action_users(trials)
+    names = Names.of(trials)
     out_dir.mkdir(parents=True, exist_ok=True)
 
-    learners = labels.algorithm_order(df["algorithm"].unique())
+    learners = names.order(df["algorithm"].unique())
     if learners:
         plot.figure2(df, out_dir / "figure2")
         figure_section = (
@@ -115,10 +110,10 @@ def write_report(results_dir: Path, out_dir: Path | None = None, reps: int = 200
         curves = str(e)
     per_count = [_demo_section(df, curves, n, out_dir, reps) for n in demo_counts(df)]
     by_env = [
-        _per_env_section(df, n, aggregate, improvement, reps, starred)
+        _per_env_section(df, n, aggregate, improvement, reps, names)
         for n, (_, aggregate, improvement) in zip(demo_counts(df), per_count, strict=True)
     ]
-    matched = [_state_match_section(df, n, reps, starred) for n in demo_counts(df)]
+    matched = [_state_match_section(df, n, reps, names) for n in demo_counts(df)]
     aggregates = _concat([aggregate for _, aggregate, _ in per_count], AGGREGATE_COLUMNS)
     improvements = _concat([improvement for _, _, improvement in per_count], IMPROVEMENT_COLUMNS)
     aggregates.to_csv(out_dir / AGGREGATES_CSV, index=False)
@@ -131,10 +126,10 @@ def write_report(results_dir: Path, out_dir: Path | None = None, reps: int = 200
 
     sections = [
         markdown.header(df, results_dir),
-        markdown.how_to_read(learners, reps, starred),
-        markdown.at_a_glance(aggregates, improvements, starred),
+        markdown.how_to_read(learners, reps, names),
+        markdown.at_a_glance(aggregates, improvements, names),
         figure_section,
-        markdown.env_by_count(per_env, starred),
+        markdown.env_by_count(per_env, names),
         *(text for text, _, _ in per_count),
         *(text for text, _ in by_env),
         *(text for text, _ in matched),
@@ -143,21 +138,19 @@ def write_report(results_dir: Path, out_dir: Path | None = None, reps: int = 200
     ]
     path = out_dir / REPORT
     path.write_text("\n\n".join(s.strip() for s in sections if s) + "\n")
-    return WrittenReport(path, aggregates, improvements, starred)
+    return WrittenReport(path, aggregates, improvements, names)
 
 
-def tables(
-    aggregates: pd.DataFrame, improvement: pd.DataFrame, action_users: Collection[str] = ()
-) -> str:
+def tables(aggregates: pd.DataFrame, improvement: pd.DataFrame, names: Names) -> str:
     """The aggregate and probability-of-improvement tables of a report, as markdown;
-    `action_users` (labels.action_users of the records) are marked with a *."""
+    labelled by `names` (`labels.Names.of` the records)."""
     parts = []
     for n in sorted(set(aggregates["n_demos"]) | set(improvement["n_demos"])):
         parts.append(f"### {markdown.demos_title(n)}")
-        parts.append(markdown.aggregate_table(aggregates[aggregates["n_demos"] == n], action_users))
+        parts.append(markdown.aggregate_table(aggregates[aggregates["n_demos"] == n], names))
         rows = improvement[improvement["n_demos"] == n]
         if len(rows):
-            parts.append(markdown.improvement_table(rows, action_users))
+            parts.append(markdown.improvement_table(rows, names))
     if not parts:
         return "No aggregate statistics: no learning algorithm in these records.\n"
     return "\n\n".join(p.strip() for p in parts) + "\n"
@@ -169,7 +162,7 @@ def tables(
 def load_iqm_curves(results_dir: Path, trials: pd.DataFrame, reps: int = 2000) -> pd.DataFrame:
     """`iqm_curves` of the learners' recorded curves, normalized with `trials`' references."""
     curves = store.load_curves(results_dir)
-    curves = curves[~curves["algorithm"].isin(REFERENCES)]
+    curves = curves[~is_reference(curves)]
     return stats.iqm_curves(normalize(curves, reference_returns(trials)), reps=reps)
 
 
@@ -182,8 +175,8 @@ def _demo_section(
     """Markdown for one demo count, and its aggregate and improvement rows."""
     title = markdown.demos_title(n)
     parts = [f"## {title}"]
-    names = comparisons.competitors(df, n)
-    starred = labels.action_users(df)
+    competing = comparisons.competitors(df, n)
+    names = Names.of(df)
     counted = comparisons.count_statistics(df, n, reps)
     if counted.failure is not None:
         parts.append(f"No aggregate statistics: {counted.failure}.")
@@ -200,15 +193,13 @@ def _demo_section(
         parts += [
             "### Aggregate normalized score",
             f"{pooled}; brackets are 95% bootstrap CIs.",
-            markdown.aggregate_table(aggregate, starred),
+            markdown.aggregate_table(aggregate, names),
         ]
         parts.append("### Probability of improvement")
         if TARGET not in counted.scores:
-            parts.append(
-                f"{labels.algorithm_label(TARGET, starred)} has no scores with {title.lower()}."
-            )
+            parts.append(f"{names.label(TARGET)} has no scores with {title.lower()}.")
         if len(improvement):
-            parts.append(markdown.improvement_table(improvement, starred))
+            parts.append(markdown.improvement_table(improvement, names))
         else:
             parts.append(
                 "Nothing to compare: no second learner to set against GAIfO or the control."
@@ -216,7 +207,7 @@ def _demo_section(
         name = f"profile_{n}demos"
         plot.save(
             plot.draw_performance_profile(
-                counted.profile, f"Performance profile, {title.lower()}", starred
+                counted.profile, names, f"Performance profile, {title.lower()}"
             ),
             out_dir / name,
         )
@@ -228,7 +219,7 @@ def _demo_section(
 
     parts += [
         "### Learning curves",
-        _curves_section(curves, names, n, title, out_dir, starred),
+        _curves_section(curves, competing, n, title, out_dir, names),
     ]
     return (
         "\n\n".join(p.strip() for p in parts),
@@ -243,7 +234,7 @@ def _per_env_section(
     pooled_aggregate: pd.DataFrame,
     pooled_improvement: pd.DataFrame,
     reps: int,
-    starred: Collection[str],
+    names: Names,
 ) -> tuple[str, pd.DataFrame]:
     """Markdown with each learner's IQM and the probabilities of improvement env by env at `n`
     demos, beside their pooled values; and its rows (PER_ENV_COLUMNS).
@@ -268,24 +259,18 @@ def _per_env_section(
         markdown.env_table(
             iqm,
             "IQM [95% CI] (seeds)",
-            {
-                labels.algorithm_label(a, starred): (a, "")
-                for a in labels.in_order(iqm["algorithm"])
-            },
+            {names.label(a): (a, "") for a in names.in_order(iqm["algorithm"])},
             columns,
         ),
     ]
     if len(improved):
         pairs = dict.fromkeys(zip(improved["algorithm"], improved["other"], strict=True))
-        keys = {markdown.pair_label(a, b, starred): (a, b) for a, b in pairs}
+        keys = {markdown.pair_label(a, b, names): (a, b) for a, b in pairs}
         lines.append(markdown.env_table(improved, "P(improvement) [95% CI]", keys, columns))
     fractions = frame[frame["statistic"] == "of_oracle"]
     if len(fractions):
         pairs = dict.fromkeys(zip(fractions["algorithm"], fractions["other"], strict=True))
-        keys = {
-            f"{labels.algorithm_label(a, starred)} / {labels.algorithm_label(b)}": (a, b)
-            for a, b in pairs
-        }
+        keys = {f"{names.label(a)} / {names.label(b)}": (a, b) for a, b in pairs}
         lines.append(markdown.env_table(fractions, "IQM / oracle's IQM [95% CI]", keys, columns))
         worst = frame[frame["statistic"] == "worst_of_oracle"]
         lines.append(markdown.env_table(worst, "Worst seed / oracle's IQM", keys, columns))
@@ -293,18 +278,18 @@ def _per_env_section(
 
 
 def _state_match_section(
-    df: pd.DataFrame, n: int, reps: int, starred: Collection[str]
+    df: pd.DataFrame, n: int, reps: int, names: Names
 ) -> tuple[str, pd.DataFrame]:
     """Markdown on how far each learner's states lie from the expert's at `n` demos, and its
     rows; nothing where the records hold no distance (pixels, or records from before)."""
     rows = comparisons.state_match_statistics(df, n, reps)
     if rows.empty:
         return "", pd.DataFrame()
-    target = labels.algorithm_label(TARGET, starred)
+    target = names.label(TARGET)
     header = ["algorithm", "runs", "IQM distance [95% CI]", f"P({target} closer) [95% CI]"]
     cells = [
         [
-            labels.algorithm_label(r.algorithm, starred),
+            names.label(r.algorithm),
             str(r.runs),
             markdown.interval(r.iqm, r.lo, r.hi),
             "" if pd.isna(r.p_closer) else markdown.interval(r.p_closer, r.p_lo, r.p_hi),
@@ -326,27 +311,27 @@ def _state_match_section(
 
 def _curves_section(
     curves: pd.DataFrame | str,
-    names: list[str],
+    competing: list[str],
     n: int,
     title: str,
     out_dir: Path,
-    action_users: Collection[str],
+    names: Names,
 ) -> str:
     if isinstance(curves, str):
         return f"No learning curves: {curves}."
-    frame = curves[curves["algorithm"].isin(names) & ((curves["n_demos"] == n) | demo_free(curves))]
+    frame = curves[
+        curves["algorithm"].isin(competing) & ((curves["n_demos"] == n) | demo_free(curves))
+    ]
     if frame.empty:
         return f"No learning curves were recorded with {title.lower()}."
     text = ""
-    missing = [a for a in names if a not in set(frame["algorithm"])]
+    missing = [a for a in competing if a not in set(frame["algorithm"])]
     if missing:
         text = (
-            "No learning curve recorded for "
-            + ", ".join(labels.algorithm_label(a, action_users) for a in missing)
-            + ".\n\n"
+            "No learning curve recorded for " + ", ".join(names.label(a) for a in missing) + ".\n\n"
         )
     name = f"curves_{n}demos"
-    figure = plot.draw_iqm_curves(frame, f"Learning curves, {title.lower()}", action_users)
+    figure = plot.draw_iqm_curves(frame, f"Learning curves, {title.lower()}", names)
     plot.save(figure, out_dir / name)
     return (
         text + "Normalized return at each evaluation during training: IQM over seeds, "

@@ -20,7 +20,8 @@ import pandas as pd
 import scipy.stats
 
 from bench.errors import BadInput
-from bench.normalize import REFERENCES, demo_free
+from bench.labels import is_reference
+from bench.normalize import demo_free
 
 
 def _import_rliable() -> tuple[ModuleType, ModuleType]:
@@ -120,7 +121,7 @@ def score_dict(
     free = demo_free(df)
     at_count = df["n_demos"] == n_demos
     if algorithms is None:
-        frame = df[at_count | (free & ~df["algorithm"].isin(REFERENCES))]
+        frame = df[at_count | (free & ~is_reference(df))]
     else:
         frame = df[df["algorithm"].isin(algorithms) & (at_count | free)]
     if frame.empty:

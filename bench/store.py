@@ -24,7 +24,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from bench import atomic
+from bench import atomic, registry
 from bench.errors import BadInput
 from bench.types import CurvePoint, TrialResult, TrialSpec
 
@@ -33,9 +33,12 @@ STALE_TMP_SECONDS = 600.0
 """A *.tmp older than this is a dead writer's; younger ones may belong to a live worker."""
 
 SPEC_COLUMNS = ["suite", "env_id", "algorithm", "n_demos", "seed", "budget", "observation"]
+ROLE_COLUMNS = ["method", "role", "family", "label"]
+"""What the shown algorithm (`algorithm`) is: the registered one it runs, its role, its
+optimizer family and its display label, as its records say (`bench.registry.Algorithm`)."""
 TRIAL_COLUMNS = [
     *SPEC_COLUMNS,
-    "method",
+    *ROLE_COLUMNS,
     "inputs",
     "trial_id",
     "status",
@@ -46,8 +49,8 @@ TRIAL_COLUMNS = [
     "state_distance",
     "software",
 ]
-CURVE_COLUMNS = ["trial_id", *SPEC_COLUMNS, "inputs", "env_steps", "return"]
-LOG_COLUMNS = ["trial_id", *SPEC_COLUMNS, "key", "index", "value"]
+CURVE_COLUMNS = ["trial_id", *SPEC_COLUMNS, *ROLE_COLUMNS, "inputs", "env_steps", "return"]
+LOG_COLUMNS = ["trial_id", *SPEC_COLUMNS, *ROLE_COLUMNS, "key", "index", "value"]
 
 
 NO_RETURN = "no finite return"
@@ -107,8 +110,13 @@ def write(results_dir: str | Path, result: TrialResult) -> Path:
 def read(path: str | Path) -> TrialResult:
     """Rebuild a TrialResult (with its TrialSpec and CurvePoints) from a record."""
     raw = json.loads(Path(path).read_text())
+    spec = TrialSpec(**raw["spec"])
+    role, family, label = raw.get("role"), raw.get("family"), raw.get("label")
+    if role is None:  # a record from before records said it: what the registry says now
+        role, family, label = registry.describe(spec.algorithm)
+        label = spec.label or label
     return TrialResult(
-        spec=TrialSpec(**raw["spec"]),
+        spec=spec,
         status=raw["status"],
         returns=[_float(r) for r in raw["returns"]],
         curve=[CurvePoint(p["env_steps"], _float(p["mean_return"])) for p in raw["curve"]],
@@ -121,6 +129,9 @@ def read(path: str | Path) -> TrialResult:
         reference=raw.get("reference"),
         state_distance=raw.get("state_distance"),
         copied_from=raw.get("copied_from"),
+        role=role,
+        family=family,
+        label=label,
         resumed_at=raw.get("resumed_at", []),
     )
 
@@ -224,11 +235,12 @@ def scan(results_dir: str | Path) -> Iterator[TrialResult]:
 
 
 def _spec_row(r: TrialResult) -> dict[str, Any]:
-    """The spec's columns; `algorithm` is the name shown (a labelled variant's label) and
-    `method` the registered algorithm it runs."""
+    """The spec's columns and ROLE_COLUMNS; `algorithm` is the name shown (a labelled
+    variant's label) and `method` the registered algorithm it runs."""
     row = {"trial_id": r.trial_id, **{c: getattr(r.spec, c) for c in SPEC_COLUMNS}}
     shown = {"algorithm": r.spec.shown, "method": r.spec.algorithm}
-    return row | shown | {"observation": r.spec.observation or "states"}
+    described = {"role": r.role or "learner", "family": r.family, "label": r.label or r.spec.shown}
+    return row | shown | described | {"observation": r.spec.observation or "states"}
 
 
 def _trial_row(r: TrialResult) -> dict[str, Any]:

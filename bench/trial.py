@@ -290,14 +290,14 @@ def run_trial(
     logger = TrialLogger(eval_envs, eval_seed, every=max(1, spec.budget // points))
     if snapshots is not None:
         logger.snapshots = TrialSnapshots(snapshots, spec, tally, logger)
-    given = reference = distance = saved = None
+    given = reference = distance = saved = role = family = label = None
     status, returns = "failed", []
     try:
         logger.events = open_events(tensorboard, spec)
         torch.manual_seed(spec.seed)
         trial = plan(spec)
         algo = trial.algorithm
-        given = algo.inputs
+        given, role, family, label = algo.inputs, algo.role, algo.family, spec.label or algo.label
         if spec.dataset and algo.inputs == "expert":
             # The demonstrator of an imported dataset cannot be run: its returns stand in.
             returns, reference = minari_io.expert_reference(minari_io.open_dataset(spec.dataset))
@@ -308,7 +308,8 @@ def run_trial(
             policy = algo.train(task, inputs, spec.budget, spec.seed, logger, config)
             visited: list[np.ndarray] | None = None if trial.pixels else []
             returns = evaluate(policy, eval_envs, spec.eval_episodes, eval_seed, visited)
-            saved = None if algo.name == "expert" else policies.to_bytes(policy)
+            # the expert's policy is shipped (results/experts), not kept per trial
+            saved = None if algo.role == "expert" else policies.to_bytes(policy)
             distance = expert_distance(spec, visited) if visited else None
         if not np.all(np.isfinite(returns)):
             raise FloatingPointError("evaluation returned a non-finite return")
@@ -338,6 +339,9 @@ def run_trial(
         inputs=given,
         reference=reference,
         state_distance=distance,
+        role=role,
+        family=family,
+        label=label,
         resumed_at=[] if resumed is None else resumed.resumed_at,
         policy=saved if status == "ok" else None,
     )

@@ -171,6 +171,13 @@ class TrialResult:
     copied_from: str | None = None
     """`<results dir>/trials/<id>.json` this record was copied from by `bench run --reuse`: the
     same trial (every setting alike) run for another suite; None where it ran for this one."""
+    role: str | None = None
+    """What its algorithm is in a comparison (`bench.registry.Role`), as registered when it ran."""
+    family: str | None = None
+    """The optimizer family whose controls it is read against (`bench.registry.Algorithm`)."""
+    label: str | None = None
+    """Its name in figures and reports: a variant's own (`TrialSpec.label`), else its
+    algorithm's registered label ("GAIfO")."""
     resumed_at: list[int] = field(default_factory=list)
     """Env steps at which the trial was resumed from a snapshot (`bench.snapshots`) after an
     interruption; empty where it trained in one go."""

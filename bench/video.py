@@ -21,7 +21,8 @@ from PIL import Image, ImageDraw, ImageFont
 
 from bench import envs, experts, labels, policies, store
 from bench.errors import BadInput
-from bench.normalize import ORACLE, REFERENCES, normalize
+from bench.labels import Names, is_reference
+from bench.normalize import normalize
 from bench.pixels import PixelConfig
 from bench.registry import Policy
 from bench.rl.networks import observation
@@ -71,13 +72,14 @@ def panels(
     if env_id not in have:
         raise VideoError(f"{results_dir} has no trials of {env_id} (has: {', '.join(have)})")
     rows = normalize(trials[trials["env_id"] == env_id])
-    rows = rows[(rows["status"] == "ok") & ~rows["algorithm"].isin(REFERENCES)]
+    rows = rows[(rows["status"] == "ok") & ~is_reference(rows)]
     counts = sorted(int(n) for n in rows["n_demos"].unique() if n > 0)
     n_demos = n_demos if n_demos is not None else (counts[-1] if counts else 0)
     if counts and n_demos not in counts:
         raise VideoError(f"no trials with {n_demos} demos on {env_id} (have: {counts})")
     rows = rows[(rows["n_demos"].isin([0, n_demos])) & (rows["seed"] == seed)]
-    names = labels.algorithm_order(rows["algorithm"].unique())
+    shown = Names.of(rows)
+    names = shown.order(rows["algorithm"].unique())
     if algorithms:
         unknown = sorted(set(algorithms) - set(names))
         if unknown:
@@ -94,7 +96,7 @@ def panels(
                 f"{file}: no policy kept for {name}, seed {seed} (run before policies were kept?)"
             )
         spec = store.read(store.record_path(results_dir, row["trial_id"])).spec
-        label = labels.algorithm_label(name) + (" (true reward)" if row["method"] == ORACLE else "")
+        label = shown[name].label + (" (true reward)" if row["role"] == "ceiling" else "")
         result.append(Panel(f"{label} {row['normalized']:.2f}", policies.load(file), env_id, spec))
     return result
 

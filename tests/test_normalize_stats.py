@@ -11,10 +11,12 @@ import pytest
 from bench import stats
 from bench.normalize import NormalizationError, normalize, reference_returns
 
+from frames import described
+
 
 def trials(rows: list[tuple]) -> pd.DataFrame:
-    return pd.DataFrame(
-        rows, columns=["env_id", "algorithm", "n_demos", "seed", "status", "return"]
+    return described(
+        pd.DataFrame(rows, columns=["env_id", "algorithm", "n_demos", "seed", "status", "return"])
     )
 
 
@@ -101,7 +103,7 @@ def test_two_records_of_one_seed_are_refused():
 def scores(algorithm: str, matrix, n_demos=5) -> pd.DataFrame:
     """A normalized frame from a (seeds x envs) matrix."""
     matrix = np.asarray(matrix, dtype=float)
-    return pd.DataFrame(
+    rows = pd.DataFrame(
         [
             {
                 "env_id": f"env{t}",
@@ -114,6 +116,7 @@ def scores(algorithm: str, matrix, n_demos=5) -> pd.DataFrame:
             for t in range(matrix.shape[1])
         ]
     )
+    return described(rows)
 
 
 ONE_TO_EIGHT = np.arange(1, 9).reshape(4, 2)  # runs x tasks

@@ -10,6 +10,8 @@ from matplotlib.patches import Rectangle
 
 from bench import labels, markdown, plot, stats
 
+from frames import described
+
 ENVS = ["HopperBulletEnv-v0", "InvertedPendulumBulletEnv-v0"]  # Pendulum comes first in the paper
 DEMOS = [1, 10]
 SEEDS = [0, 1, 2]
@@ -31,7 +33,7 @@ def frame() -> pd.DataFrame:
 
 
 def test_figure2_panels_bars_and_labels():
-    fig = plot.draw_figure2(frame())
+    fig = plot.draw_figure2(described(frame()))
     assert len(fig.axes) == len(ENVS)
     assert [ax.get_title() for ax in fig.axes] == ["InvertedPendulum", "Hopper"]
     for ax in fig.axes:
@@ -72,7 +74,7 @@ def test_figure2_legend_is_no_wider_than_the_figure():
         ],
         ignore_index=True,
     )
-    fig = plot.draw_figure2(df)
+    fig = plot.draw_figure2(described(df))
     fig.draw_without_rendering()
     (legend,) = fig.legends
     assert len(legend.get_texts()) == 6
@@ -84,7 +86,7 @@ def test_figure2_legend_is_no_wider_than_the_figure():
 def test_figure2_repeats_demo_free_learners_at_every_count():
     df = frame()
     free = df[df["algorithm"] == "random"].assign(algorithm="no-demos-ifo", normalized=0.2)
-    fig = plot.draw_figure2(pd.concat([df, free]))
+    fig = plot.draw_figure2(described(pd.concat([df, free])))
     for ax in fig.axes:
         assert len(ax.patches) == 3 * len(DEMOS)
         assert [t.get_text() for t in ax.get_xticklabels()] == ["1", "10"]
@@ -93,7 +95,7 @@ def test_figure2_repeats_demo_free_learners_at_every_count():
 
 
 def test_figure2_writes_png_and_pdf(tmp_path):
-    paths = plot.figure2(frame(), tmp_path / "figs" / "figure2")
+    paths = plot.figure2(described(frame()), tmp_path / "figs" / "figure2")
     assert paths == [tmp_path / "figs" / "figure2.png", tmp_path / "figs" / "figure2.pdf"]
     assert paths[0].read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     assert paths[1].read_bytes()[:5] == b"%PDF-"
@@ -101,23 +103,26 @@ def test_figure2_writes_png_and_pdf(tmp_path):
 
 def test_figure2_without_action_users_has_no_footnote():
     df = frame()
-    fig = plot.draw_figure2(df[df["algorithm"] != "gail"])
+    fig = plot.draw_figure2(described(df[df["algorithm"] != "gail"]))
     assert labels.ACTIONS_FOOTNOTE not in [t.get_text() for t in fig.texts]
 
 
 def test_figure2_needs_a_learner():
     df = frame()
     with pytest.raises(ValueError, match="no trials of a learning algorithm"):
-        plot.draw_figure2(df[df["algorithm"].isin(["random", "expert"])])
+        plot.draw_figure2(described(df[df["algorithm"].isin(["random", "expert"])]))
 
 
 def test_order_and_colors_are_fixed():
-    assert labels.algorithm_order(["zeta", "tcn", "random", "gaifo", "alpha"]) == [
+    assert labels.algorithm_order(["zeta", "tcn", "gaifo", "alpha"]) == [
         "gaifo",
         "tcn",
         "alpha",
         "zeta",
     ]
+    names = labels.Names.of(described(frame()))
+    assert names.order(["gail", "random", "gaifo", "expert"]) == ["gaifo", "gail"]  # by role
+    assert names.in_order(["expert", "gail", "random"]) == ["gail", "expert", "random"]
     assert (
         plot.algorithm_colors(["gail"])["gail"]
         == plot.algorithm_colors(["gaifo", "gail", "x"])["gail"]
@@ -128,7 +133,7 @@ def test_order_and_colors_are_fixed():
 
 
 def test_summary_table(table_rows):
-    table = markdown.summary_table(frame())
+    table = markdown.summary_table(described(frame()))
     rows = table_rows(table)
     assert rows[0] == ["env", "algorithm", "no demos", "1 demo", "10 demos"]
     assert ["InvertedPendulum", "GAIfO", "", "0.15 ± 0.10", "0.60 ± 0.10"] in rows
@@ -154,7 +159,8 @@ def test_iqm_learning_curves(tmp_path):
     curves = pd.DataFrame(
         rows, columns=["env_id", "algorithm", "n_demos", "seed", "env_steps", "normalized"]
     )
-    fig = plot.draw_iqm_curves(stats.iqm_curves(curves, reps=20), "Learning curves")
+    names = labels.Names.of(described(curves))
+    fig = plot.draw_iqm_curves(stats.iqm_curves(curves, reps=20), "Learning curves", names)
     assert len(fig.axes) == len(ENVS)
     assert [len(ax.lines) for ax in fig.axes] == [2 + 2] * len(ENVS)  # two algorithms, 0 and 1
     assert plot.save(fig, tmp_path / "curves")[0].is_file()
@@ -163,7 +169,13 @@ def test_iqm_learning_curves(tmp_path):
 def test_performance_profile_plot(tmp_path):
     scores = {"gaifo": np.arange(1, 9).reshape(4, 2) / 8, "gail": np.full((4, 2), 0.5)}
     profile = stats.performance_profile(scores, np.linspace(0, 1, 5), reps=20)
-    fig = plot.draw_performance_profile(profile, action_users={"gail"})
+    names = labels.Names(
+        {
+            "gaifo": labels.Shown("GAIfO", "learner", "trpo", "gaifo"),
+            "gail": labels.Shown("GAIL", "learner", "trpo", "gail", uses_actions=True),
+        }
+    )
+    fig = plot.draw_performance_profile(profile, names)
     assert [line.get_label() for line in fig.axes[0].lines] == ["GAIfO", "GAIL*"]
     assert plot.save(fig, tmp_path / "profile")[1].is_file()
 
@@ -173,7 +185,7 @@ def test_figure2_draws_the_controls_as_lines_not_bars():
     experts = df[df["algorithm"] == "expert"]
     oracle = experts.assign(algorithm="oracle", normalized=[0.8, 0.9, 0.7] * len(ENVS))
     survival = experts.assign(algorithm="survival-b", method="survival", normalized=0.3)
-    fig = plot.draw_figure2(pd.concat([df, oracle.assign(method="oracle"), survival]))
+    fig = plot.draw_figure2(described(pd.concat([df, oracle.assign(method="oracle"), survival])))
     for ax in fig.axes:
         bars = [bar for c in ax.containers if isinstance(c, BarContainer) for bar in c]
         assert len(bars) == 2 * len(DEMOS)  # gaifo and gail; the controls' bands are no bars
@@ -187,5 +199,7 @@ def test_figure2_draws_the_controls_as_lines_not_bars():
 def test_figure2_of_controls_alone_draws_them_as_bars():
     df = frame()
     survival = df[df["algorithm"] == "expert"].assign(algorithm="survival", normalized=0.3)
-    fig = plot.draw_figure2(pd.concat([df[df["algorithm"].isin(["random", "expert"])], survival]))
+    fig = plot.draw_figure2(
+        described(pd.concat([df[df["algorithm"].isin(["random", "expert"])], survival]))
+    )
     assert [len(ax.patches) for ax in fig.axes] == [1] * len(ENVS)  # one bar: no demo counts

@@ -175,3 +175,105 @@ def test_every_committed_record_is_still_a_trial_of_its_suite():
             registry.get(record.spec.algorithm).make_config(record.spec.hyperparams)
             checked += 1
         assert checked == len(list(store.trials_dir(root / "results" / name).glob("*.json")))
+
+
+PLUGIN_ROLES = '''
+from dataclasses import dataclass
+
+import numpy as np
+
+from bench.learners import ImitationTRPOConfig, one_batch, trpo_on_reward
+from bench.registry import register
+
+
+@register("standing", config=ImitationTRPOConfig, inputs="none", min_budget=one_batch,
+          role="floor", family="trpo", label="Standing")
+def standing(task, demos, budget, seed, logger, config):
+    """A floor of its own: TRPO paid 2 per step alive."""
+    reward = lambda b: 2 * np.ones_like(b.rewards)
+    return trpo_on_reward(task, budget, seed, logger, config, reward, reward_state={})
+
+
+class MeanAction:
+    """A policy class of the plugin's own: the demonstrations' mean state, mapped linearly."""
+
+    def __init__(self, weights):
+        self.weights = np.asarray(weights, dtype=np.float32)
+
+    def __call__(self, obs):
+        return np.tanh(obs @ self.weights)
+
+    def state(self):
+        import torch
+        return {"weights": torch.from_numpy(self.weights)}
+
+    @classmethod
+    def from_state(cls, state):
+        return cls(state["weights"].numpy())
+
+
+@dataclass
+class LinearConfig:
+    pass
+
+
+@register("linear", config=LinearConfig, inputs="states", family="trpo", label="Linear")
+def linear(task, demos, budget, seed, logger, config):
+    """Acts on a random projection of the state."""
+    rng = np.random.default_rng(seed)
+    return MeanAction(rng.normal(size=(task.obs_dim, task.act_dim)) * 0.1)
+'''
+
+
+def test_a_plugin_control_is_drawn_and_reported_as_one_and_its_policy_is_kept(
+    tmp_path, cli, install_plugin
+):
+    """Roles are declared, not guessed from names: a plugin registered as a floor control is
+    drawn as a floor's line and every learner of its family is compared with it; a plugin's
+    own policy class is kept like a built-in's and acts as it did when evaluated."""
+    from bench import plot, policies, store
+    from bench.labels import Names
+    from bench.normalize import normalize
+
+    env = install_plugin(
+        tmp_path / "site",
+        "roles",
+        "standing = roles_ifo\nlinear = roles_ifo",
+        {"roles_ifo": PLUGIN_ROLES},
+    )
+    suite = tmp_path / "roles.yaml"
+    tiny = "{n_envs: 2, steps_per_env: 512}"
+    suite.write_text(
+        f"envs: {{{PENDULUM}: {{budget: 2048}}}}\ndemos: [1]\nseeds: 2\neval_episodes: 2\n"
+        f"algorithms: [random, expert, gaifo: {tiny}, standing: {tiny}, linear]\n"
+    )
+    results = tmp_path / "res"
+    out = cli("run", str(suite), "--results", str(results), "--jobs", "1", env=env)
+    assert out.returncode == 0, out.stderr
+    out = cli("report", str(results), env=env)
+    assert out.returncode == 0, out.stderr
+
+    trials = store.load(results)
+    roles = dict(zip(trials["algorithm"], trials["role"], strict=False))
+    assert roles["standing"] == "floor" and roles["linear"] == "learner"
+    text = (results / "report" / "report.md").read_text()
+    for pair in ("GAIfO > Standing", "Linear > Standing", "GAIfO > Linear"):
+        assert pair in text, pair
+    assert "**Survival** is a control" in text  # the floor's explanation, whatever its name
+
+    fig = plot.draw_figure2(normalize(trials))
+    legend = [t.get_text() for t in fig.legends[0].get_texts()]
+    assert "Standing (floor: paid to stay alive)" in legend and "Linear" in legend
+    assert Names.of(trials).label("linear") == "Linear"
+
+    for row in trials[trials["algorithm"] == "linear"].itertuples():
+        file = policies.path(results, row.trial_id)
+        assert file.is_file(), "a plugin's own policy class is kept"
+    code = (
+        "import sys, numpy as np\nfrom bench import policies\n"
+        "p = policies.load(sys.argv[1])\nprint(type(p).__name__, p(np.zeros((1, 5))).shape)\n"
+    )
+    loaded = subprocess.run(
+        [sys.executable, "-c", code, str(file)], env=env, capture_output=True, text=True
+    )
+    assert loaded.stdout.split() == ["MeanAction", "(1,", "1)"], loaded.stderr

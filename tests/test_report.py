@@ -13,6 +13,8 @@ import pytest
 from bench import cli, comparisons, labels, markdown, report, stats, store
 from bench.types import CurvePoint, TrialResult, TrialSpec
 
+from frames import names
+
 ENVS = {"InvertedPendulumBulletEnv-v0": (20.0, 1000.0), "HopperBulletEnv-v0": (-5.0, 2500.0)}
 """env -> (random return, expert return)."""
 DEMOS = [1, 5]
@@ -159,16 +161,24 @@ def test_per_env_statistics_keep_every_seed_an_env_has(tmp_path):
         assert improved.loc[(env_id, "gaifo", "gail"), "estimate"] == 1.0
 
 
-def test_improvement_pairs_set_gaifo_against_all_and_all_against_the_control():
-    assert comparisons.improvement_pairs(["survival", "bco", "gaifo", "gail"]) == [
+def test_improvement_pairs_set_gaifo_against_all_and_all_against_their_floor():
+    def pairs(shown: list[str]) -> list[tuple[str, str]]:
+        return comparisons.improvement_pairs(shown, names(shown))
+
+    assert pairs(["survival", "bco", "gaifo", "gail"]) == [
         ("gaifo", "gail"),
         ("gaifo", "bco"),
         ("gaifo", "survival"),
         ("gail", "survival"),
         ("bco", "survival"),
     ]
-    assert comparisons.improvement_pairs(["gail", "survival"]) == [("gail", "survival")]
-    assert comparisons.improvement_pairs(["gail", "bco"]) == []
+    assert pairs(["gail", "survival"]) == [("gail", "survival")]
+    assert pairs(["gail", "bco"]) == []
+    # each learner against the floor of its own optimizer; the ceilings are no rivals
+    assert pairs(["gail-sac", "survival", "survival-sac", "oracle-sac"]) == [
+        ("gail-sac", "survival-sac")
+    ]
+    assert pairs(["opolo", "survival", "survival-sac"]) == []  # no TD3 floor ran
 
 
 def test_distance_to_the_expert_states(written, table_rows):
@@ -261,7 +271,7 @@ def test_one_env_one_seed_no_gaifo_no_curves(tmp_path, table_rows):
         store.write(results, trial(env_id, algorithm, 0, 0))
     store.write(results, trial(env_id, "gail", 5, 0, curve=[]))
     text = report.write_report(results, tmp_path / "out", reps=20).path.read_text()
-    assert "GAIfO has no scores with 5 demonstrations" in text
+    assert "gaifo has no scores with 5 demonstrations" in text  # no record says its label
     assert "0.49 [0.49, 0.49]" in text  # gail: one seed, a point interval
     assert any(r[:2] == ["GAIL*", "1 × 1"] for r in table_rows(text))
     assert "No learning curve recorded for GAIL*" in text
@@ -349,25 +359,30 @@ def test_learners_are_read_as_fractions_of_their_matched_oracle(tmp_path):
     assert "IQM / oracle's IQM" in text and "Worst seed / oracle's IQM" in text
 
 
-def test_ceiling_of_matches_a_variant_suffix_else_the_plain_oracle():
+def test_the_ceiling_is_of_the_learners_family_and_its_variant_suffix_else_the_plain_one():
+    def ceiling_of(learner: str, methods: dict[str, str]) -> str | None:
+        return comparisons.control_of(learner, "ceiling", methods, names(methods))
+
     methods = {
         "gaifo": "gaifo",
         "gaifo-b1024": "gaifo",
         "oracle": "oracle",
         "oracle-b1024": "oracle",
     }
-    assert comparisons.ceiling_of("gaifo-b1024", methods) == "oracle-b1024"
-    assert comparisons.ceiling_of("gaifo", methods) == "oracle"
-    assert comparisons.ceiling_of("gail-x", methods | {"gail-x": "gail"}) == "oracle"
-    assert comparisons.ceiling_of("gaifo", {"gaifo": "gaifo"}) is None
+    assert ceiling_of("gaifo-b1024", methods) == "oracle-b1024"
+    assert ceiling_of("gaifo", methods) == "oracle"
+    assert ceiling_of("gail-x", methods | {"gail-x": "gail"}) == "oracle"
+    assert ceiling_of("gaifo", {"gaifo": "gaifo"}) is None
     sac = {
         "gaifo": "gaifo",
         "gaifo-sac": "gaifo-sac",
         "oracle": "oracle",
         "oracle-sac": "oracle-sac",
+        "opolo": "opolo",
     }
-    assert comparisons.ceiling_of("gaifo-sac", sac) == "oracle-sac"  # each optimizer's own ceiling
-    assert comparisons.ceiling_of("gaifo", sac) == "oracle"
+    assert ceiling_of("gaifo-sac", sac) == "oracle-sac"  # each optimizer's own ceiling
+    assert ceiling_of("gaifo", sac) == "oracle"
+    assert ceiling_of("opolo", sac) is None  # TD3's: neither TRPO's nor SAC's oracle
 
 
 def test_screen_variants_on_one_env_each_leave_the_pooled_statistics_not_the_others():
@@ -395,10 +410,10 @@ def test_at_a_glance_says_when_its_counts_pool_different_envs(table_rows):
         )
 
     empty = pd.DataFrame(columns=report.IMPROVEMENT_COLUMNS)
-    partial = markdown.at_a_glance(aggregates({1: 2, 5: 6}), empty, ())
+    partial = markdown.at_a_glance(aggregates({1: 2, 5: 6}), empty, names(["gaifo"]))
     assert ["envs pooled", "2", "6"] in table_rows(partial)
     assert "read down a column, not across a row" in partial
-    whole = markdown.at_a_glance(aggregates({1: 6, 5: 6}), empty, ())
+    whole = markdown.at_a_glance(aggregates({1: 6, 5: 6}), empty, names(["gaifo"]))
     assert ["envs pooled", "6", "6"] in table_rows(whole) and "across a row" not in whole
 
 
@@ -432,6 +447,6 @@ def test_per_env_across_counts_marks_a_count_without_runs(table_rows):
         [25, "pooled", "iqm", "bco", None, 3, 0.25, 0.2, 0.3],
     ]
     per_env = pd.DataFrame(rows, columns=report.PER_ENV_COLUMNS)
-    header, *body = table_rows(markdown.env_by_count(per_env, ()))
+    header, *body = table_rows(markdown.env_by_count(per_env, names(["gaifo", "gail", "bco"])))
     assert header == ["at 1 / 25 demos", labels.env_label(PENDULUM)]
     assert body == [["GAIfO", "0.50 / 0.90"], ["BCO", "- / 0.25"]]

@@ -10,7 +10,7 @@ import time
 import numpy as np
 import pytest
 
-from bench import store
+from bench import registry, store
 from bench.types import CurvePoint, TrialResult, TrialSpec
 
 
@@ -19,8 +19,13 @@ def spec(algorithm="gaifo", seed=0, n_demos=5, env_id="HopperBulletEnv-v0") -> T
 
 
 def result(s: TrialSpec | None = None, status="ok", returns=(1.0, 2.0, 3.0), **kw) -> TrialResult:
+    s = s or spec()
+    role, family, label = registry.describe(s.algorithm)
     fields = dict(
-        spec=s or spec(),
+        spec=s,
+        role=role,
+        family=family,
+        label=s.label or label,
         status=status,
         returns=list(returns),
         curve=[CurvePoint(500, 0.5), CurvePoint(1000, 2.0)],
@@ -39,6 +44,18 @@ def test_round_trip(tmp_path):
     back = store.read(path)
     assert back == r
     assert isinstance(back.spec, TrialSpec) and isinstance(back.curve[0], CurvePoint)
+
+
+def test_a_record_keeps_what_its_algorithm_was_and_an_old_one_is_told_by_the_registry(tmp_path):
+    """Records say what their algorithm is (role, family, label), so analysis never guesses
+    it from a name; a record from before they did is read as the registry describes it now."""
+    plugin = result(spec(algorithm="my-ifo"), role="floor", family="trpo", label="Mine")
+    assert store.read(store.write(tmp_path, plugin)) == plugin
+    old = result(role=None, family=None, label=None)
+    back = store.read(store.write(tmp_path, old))
+    assert (back.role, back.family, back.label) == ("learner", "trpo", "GAIfO")
+    row = store.load(tmp_path).set_index("algorithm").loc["my-ifo"]
+    assert (row["role"], row["family"], row["label"]) == ("floor", "trpo", "Mine")
 
 
 def test_non_finite_numbers_become_null_and_come_back_as_nan(tmp_path):

@@ -27,7 +27,7 @@ def _plot(args: argparse.Namespace) -> int:
             kinds = ", ".join(f"{n} {s}" for s, n in left_out["status"].value_counts().items())
             print(f"{d}: {len(left_out)} records left out ({kinds})", file=sys.stderr)
         written = []
-        if labels.algorithm_order(df["algorithm"].unique()):
+        if labels.Names.of(df).order(df["algorithm"].unique()):
             out = Path(args.out) if args.out and len(dirs) == 1 else d / "figure2.png"
             written = plot.figure2(df, out)
         else:
@@ -42,7 +42,7 @@ def _report(args: argparse.Namespace) -> int:
     from bench import report
 
     for written in report.write_reports(args.results_dir, args.out, args.reps):
-        tables = report.tables(written.aggregates, written.improvements, written.action_users)
+        tables = report.tables(written.aggregates, written.improvements, written.names)
         print(f"## {written.path}\n\n{tables}")
         print(f"wrote {written.path} (figures and aggregates.csv beside it)\n")
     return 0
@@ -54,8 +54,8 @@ def _compare(args: argparse.Namespace) -> int:
     run, ref = (_one_suite(args.run), _one_suite(args.reference))
     run_df, ref_df = normalize.normalized_alike(run, ref)
     comparison = stats.compare(run_df, ref_df, reps=args.reps)
-    starred = labels.action_users(run_df) | labels.action_users(ref_df)
-    print(markdown.compare_table(comparison, str(args.run), str(args.reference), starred))
+    names = labels.Names.of(run_df, ref_df)
+    print(markdown.compare_table(comparison, str(args.run), str(args.reference), names))
     return 0
 
 
