@@ -29,7 +29,7 @@ from bench.learners import (
     PolicyAverage,
     report_each_update,
 )
-from bench.registry import Logger, Task, added_later, snapshots_of
+from bench.registry import Logger, Task, snapshots_of
 from bench.rl import absorbing
 from bench.rl.absorbing import Transitions
 from bench.rl.networks import (
@@ -81,11 +81,11 @@ class AdversarialConfig(ImitationTRPOConfig):
     positive: pays for every step alive) or "log D" (always negative: pays for ending early)."""
     absorbing: bool = True
     """Terminations lead into an absorbing state that D judges (bench.rl.absorbing); off: valued 0."""
-    disc_norm: str = added_later("policy")
+    disc_norm: str = "policy"
     """How D scales the states it judges: "policy" (the policy's running statistics, shared with
     it) or "expert" (the demonstrations' statistics, fixed, as the off-policy learners' D).
     States only; frames are scaled to [0, 1] either way."""
-    disc_pause_above: float = added_later(1.0)
+    disc_pause_above: float = 1.0
     """D takes no step in an update where it already tells more than this share of the policy's
     new batch from the expert (judged before training); 1 never pauses. Meant for where D is
     right on 0.99-1.00 of the policy's samples for hundreds of thousands of steps while the

@@ -59,7 +59,7 @@ def check_one_record_per_seed(df: pd.DataFrame) -> None:
 
 def check_one_suite(df: pd.DataFrame) -> None:
     """Raise NormalizationError unless the records are one suite's: one suite name, and one
-    budget per env. A record copied in from another suite (`--reuse` renames what it copies)
+    budget per env. A record of another suite (a link takes the linking suite's name)
     or run at another budget would otherwise be averaged in with the rest."""
     for column, within in (("suite", None), ("budget", "env_id")):
         if column not in df:

@@ -40,7 +40,9 @@ def to_bytes(policy: object) -> bytes | None:
     """The file's bytes for a policy that can be rebuilt (`state()` and `from_state`); None
     for one that cannot (random's, which holds no weights, or a plain function)."""
     cls = type(policy)
-    if not (callable(getattr(policy, "state", None)) and callable(getattr(cls, "from_state", None))):
+    if not (
+        callable(getattr(policy, "state", None)) and callable(getattr(cls, "from_state", None))
+    ):
         return None
     state = policy.state()
     if KINDS.get(state.get("kind")) is not cls:  # a plugin's: its file says what rebuilds it

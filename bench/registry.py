@@ -144,25 +144,6 @@ def snapshots_of(logger: Logger) -> Snapshots | None:
     return getattr(logger, "snapshots", None)
 
 
-ADDED_LATER = "added_later"
-"""Field metadata key of a config setting added after records were made with its config."""
-
-
-def added_later(default: Any) -> Any:
-    """A config dataclass field added after records of its algorithm exist: at its default it is
-    left out of trial ids, so those records keep theirs; any other value is a new trial.
-
-    The default is what the old records ran with, so it can never change: a new default would
-    share their ids. It must be immutable and plain JSON (a number, string, bool or None). A
-    subclass that redeclares the field redeclares it with `added_later` too."""
-    return dataclasses.field(default=default, metadata={ADDED_LATER: True})
-
-
-def added_later_defaults(config: type) -> dict[str, Any]:
-    """A config dataclass's `added_later` fields and their defaults."""
-    return {f.name: f.default for f in dataclasses.fields(config) if f.metadata.get(ADDED_LATER)}
-
-
 class TrainFn(Protocol):
     def __call__(
         self, task: Task, demos: Any, budget: int, seed: int, logger: Logger, config: Any

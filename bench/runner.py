@@ -32,10 +32,26 @@ class RunSummary:
     done: int
     failed: int
     skipped: int
+    """Trials this folder had finished, or found finished in another suite's (`linked`)."""
     left: int = 0
     """Pending trials not started: under a time limit, those that would not have fit."""
     paused: int = 0
     """Trials stopped at the time limit, each kept as a snapshot to resume from."""
+    linked: int = 0
+    """Of the skipped, trials another suite's folder had finished: linked, not rerun."""
+
+
+def link_finished(specs: list[TrialSpec], results_dir: Path, root: Path | None) -> list[TrialSpec]:
+    """Link into `results_dir` the trials of `specs` that a folder under `root` has finished
+    (the same trial, asked for by another suite: `store.link`); return the others."""
+    if root is None or not specs:
+        return specs
+    found = store.find(root, {s.trial_id for s in specs}, besides=results_dir)
+    for spec in specs:
+        if spec.trial_id in found:
+            label = spec.label or registry.get(spec.algorithm).label
+            store.link(results_dir, spec, label, found[spec.trial_id])
+    return [s for s in specs if s.trial_id not in found]
 
 
 def pending(specs: list[TrialSpec], have: dict[str, str], retry_failed: bool) -> list[TrialSpec]:
@@ -102,9 +118,11 @@ def run_suite(
 ) -> RunSummary:
     """Run every pending trial in parallel, writing each record as it finishes; with
     `tensorboard`, each trial's scalars go there live as TensorBoard events. The trials of
-    the algorithms `first` (names or labels) start before the others'. Trials are priced by the
-    records of every results folder under `priced_by` (default: `results_dir`'s own), read
-    only when something is pending, and by each trial as it finishes. Trials whose algorithm
+    the algorithms `first` (names or labels) start before the others'. A trial that a folder
+    under `priced_by` has finished (another suite's: the same trial) is linked, not rerun
+    (`store.link`). Trials are priced by the records of every results folder under `priced_by`
+    (default: `results_dir`'s own), read only when something is pending, and by each trial as
+    it finishes. Trials whose algorithm
     takes snapshots save one every `snapshot_every` seconds under `<results_dir>/.partial/`
     (None: never) and resume from it after an interruption. Under a time `limit`, a trial starts
     if it is expected to finish in time or, with snapshots, if it can pause at the limit (see
@@ -113,6 +131,8 @@ def run_suite(
     records = list(store.scan(results_dir))
     have = {r.trial_id: r.status for r in records}
     todo = pending(specs, have, retry_failed)
+    unlinked = link_finished(todo, results_dir, priced_by)
+    linked, todo = len(todo) - len(unlinked), unlinked
     skipped = len(specs) - len(todo)
     snapshot_plan = None
     if snapshot_every is not None:
@@ -122,7 +142,7 @@ def run_suite(
         for trial_id in snapshot_plan.saved() & finished:  # a run killed as a record landed
             snapshot_plan.discard(trial_id)
     if not todo:
-        return RunSummary(0, 0, skipped)
+        return RunSummary(0, 0, skipped, linked=linked)
     others = [] if priced_by is None else store.scan_under(priced_by, besides=results_dir)
     costs = CostModel.of(itertools.chain(records, others))
     if snapshot_plan is not None:
@@ -190,4 +210,4 @@ def run_suite(
         if client is not None:
             client.close()
     left = len(todo) - done - failed - paused
-    return RunSummary(done, failed, skipped, left=left, paused=paused)
+    return RunSummary(done, failed, skipped, left=left, paused=paused, linked=linked)

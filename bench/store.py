@@ -5,6 +5,11 @@ A record appears under its final name only once complete (temp file in the
 same folder, fsync, atomic rename), so a killed run leaves at worst a stray
 `*.tmp`, which readers ignore and the next write or scan removes. A trial is
 finished exactly when its record exists; resuming a suite is skipping those.
+
+A trial is identified by what decides its outcome (`TrialSpec.identity`), not by the suite
+that asked for it, so one that another suite ran already is not run again: its suite's folder
+gets a link instead (`link`), a small file naming where the record is, with this suite's name
+and label for it. Readers see a linked record as the folder's own (`read`).
 """
 
 from __future__ import annotations
@@ -17,7 +22,7 @@ import math
 import os
 import time
 import warnings
-from collections.abc import Iterator
+from collections.abc import Collection, Iterator
 from pathlib import Path
 from typing import Any
 
@@ -55,6 +60,8 @@ LOG_COLUMNS = ["trial_id", *SPEC_COLUMNS, *ROLE_COLUMNS, "key", "index", "value"
 
 NO_RETURN = "no finite return"
 """The status `load` gives a record marked ok whose returns are missing, NaN or infinite."""
+LINK = "same_as"
+"""The key of a link file: the record it stands for, relative to the link's folder."""
 LOCK = ".lock"
 """A results folder's lock file: held (flock) by the one `bench run` writing into it."""
 
@@ -101,15 +108,49 @@ def write(results_dir: str | Path, result: TrialResult) -> Path:
     _remove_stale_tmp(folder)
     record = dataclasses.asdict(dataclasses.replace(result, policy=None))
     del record["policy"]  # a file of its own (bench.policies)
+    del record["stored_in"]  # where the reader found it
     if not record["resumed_at"]:  # trials that ran in one go: records as they always were
         del record["resumed_at"]
     text = json.dumps(_finite(record), allow_nan=False, indent=1)
     return atomic.write_text(record_path(results_dir, result.trial_id), text)
 
 
+def link(results_dir: str | Path, spec: TrialSpec, label: str, record: str | Path) -> Path:
+    """Say in `results_dir` that its suite's trial `spec` is the one recorded at `record`
+    (another folder's, the same trial id): a link file that `read` follows, with `spec`'s
+    suite and label and the `label` figures show it under. Written atomically."""
+    record = Path(record)
+    if record.parent.parent.resolve() == Path(results_dir).resolve():
+        raise ValueError(f"{record} is in {results_dir} already")
+    target = os.path.relpath(record, trials_dir(results_dir))
+    text = json.dumps(
+        {LINK: target, "suite": spec.suite, "spec_label": spec.label, "label": label}, indent=1
+    )
+    return atomic.write_text(record_path(results_dir, spec.trial_id), text)
+
+
+def real_path(path: str | Path) -> Path:
+    """The record file that `path` stands for: itself, or the one a link names."""
+    path = Path(path)
+    raw = json.loads(path.read_text())
+    if isinstance(raw, dict) and LINK in raw:
+        return Path(os.path.normpath(path.parent / raw[LINK]))
+    return path
+
+
 def read(path: str | Path) -> TrialResult:
-    """Rebuild a TrialResult (with its TrialSpec and CurvePoints) from a record."""
+    """Rebuild a TrialResult (with its TrialSpec and CurvePoints) from a record, or from the
+    record a link names, as the linking suite's (its name and label; `stored_in` the folder
+    that holds it)."""
     raw = json.loads(Path(path).read_text())
+    if LINK in raw:
+        target = Path(os.path.normpath(Path(path).parent / raw[LINK]))
+        if LINK in json.loads(target.read_text()):
+            raise ValueError(f"{path} links to {target}, itself a link")
+        result = read(target)
+        spec = dataclasses.replace(result.spec, suite=raw["suite"], label=raw["spec_label"])
+        folder = str(target.parent.parent)
+        return dataclasses.replace(result, spec=spec, label=raw["label"], stored_in=folder)
     spec = TrialSpec(**raw["spec"])
     role, family, label = raw.get("role"), raw.get("family"), raw.get("label")
     if role is None:  # a record from before records said it: what the registry says now
@@ -128,7 +169,6 @@ def read(path: str | Path) -> TrialResult:
         inputs=raw.get("inputs"),
         reference=raw.get("reference"),
         state_distance=raw.get("state_distance"),
-        copied_from=raw.get("copied_from"),
         role=role,
         family=family,
         label=label,
@@ -212,6 +252,32 @@ def scan_under(root: str | Path, besides: str | Path | None = None) -> Iterator[
     for results_dir in find_result_dirs(root):
         if os.path.realpath(results_dir) != skip:
             yield from scan(results_dir)
+
+
+def find(
+    root: str | Path, ids: Collection[str], besides: str | Path | None = None
+) -> dict[str, Path]:
+    """Where under `root` (but in `besides`) each of `ids` is recorded as finished (ok, with
+    finite returns): trial id -> its record's own file (a link followed). Reads only the files
+    named by those ids."""
+    skip = None if besides is None else os.path.realpath(besides)
+    found: dict[str, Path] = {}
+    for results_dir in find_result_dirs(root):
+        if os.path.realpath(results_dir) == skip:
+            continue
+        for trial_id in sorted(set(ids) - found.keys()):
+            path = record_path(results_dir, trial_id)
+            if not path.is_file():
+                continue
+            try:
+                result = read(path)
+            except (OSError, ValueError, KeyError, TypeError):
+                continue  # a malformed record is `scan`'s to warn about
+            returns = np.asarray(result.returns, dtype=float)
+            finished = result.status == "ok" and returns.size and np.isfinite(returns).all()
+            if finished and result.trial_id == trial_id:
+                found[trial_id] = real_path(path)
+    return found
 
 
 def scan(results_dir: str | Path) -> Iterator[TrialResult]:

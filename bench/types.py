@@ -87,7 +87,9 @@ algorithm offers checkpoints)."""
 
 @dataclass(frozen=True)
 class TrialSpec:
-    """Everything that determines one trial. Its id is a hash of all of it."""
+    """Everything that determines one trial, and the suite that asked for it. Its id hashes
+    what decides its outcome (`identity`): everything but the suite's name and label, so the
+    same trial asked for by two suites is one record."""
 
     suite: str
     env_id: str
@@ -110,14 +112,14 @@ class TrialSpec:
     frames; demonstrations are then the expert's video."""
     frame_size: int | None = None
     """Side in pixels of the frames of a pixel or video-reward trial (None: PixelConfig's 64)."""
-    curve_points: int | None = None
-    """Learning-curve evaluations during training (None: `CURVE_POINTS`)."""
+    curve_points: int = CURVE_POINTS
+    """Learning-curve evaluations during training."""
 
-    def canonical(self) -> str:
+    def identity(self) -> str:
+        """What decides the trial's outcome, as canonical JSON: every field but `suite` and
+        `label`, which only say who asked for it and what it is called there."""
         spec = asdict(self)
-        for optional in ("label", "dataset", "observation", "frame_size", "curve_points"):
-            if spec[optional] is None:
-                del spec[optional]  # so specs from before these fields existed keep their ids
+        del spec["suite"], spec["label"]
         return json.dumps(spec, sort_keys=True, separators=(",", ":"))
 
     @property
@@ -127,10 +129,10 @@ class TrialSpec:
 
     @property
     def trial_id(self) -> str:
-        return hashlib.sha256(self.canonical().encode()).hexdigest()[:16]
+        return hashlib.sha256(self.identity().encode()).hexdigest()[:16]
 
     def __hash__(self) -> int:
-        return hash(self.canonical())
+        return hash(self.identity())
 
 
 @dataclass(frozen=True)
@@ -168,9 +170,10 @@ class TrialResult:
     """How far the evaluation episodes' states lie from the expert's pool
     (`bench.state_match.state_distance`: 0 = distributed alike); None from pixels, for a
     dataset's demonstrator, and in records written before it was measured."""
-    copied_from: str | None = None
-    """`<results dir>/trials/<id>.json` this record was copied from by `bench run --reuse`: the
-    same trial (every setting alike) run for another suite; None where it ran for this one."""
+    stored_in: str | None = None
+    """Where a trial another suite ran is recorded, for a suite that asks for it too: that
+    suite's results folder, which holds its record and policy (`bench.store.link`); None where
+    the record is this folder's own. Said by the reader, never written into a record."""
     role: str | None = None
     """What its algorithm is in a comparison (`bench.registry.Role`), as registered when it ran."""
     family: str | None = None

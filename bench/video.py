@@ -90,12 +90,13 @@ def panels(
     result = [Panel("Expert 1.00", experts.load_expert(env_id), env_id)]
     for name in names:
         row = rows[rows["algorithm"] == name].iloc[0]
-        file = policies.path(results_dir, row["trial_id"])
+        record = store.read(store.record_path(results_dir, row["trial_id"]))
+        file = policies.path(record.stored_in or results_dir, row["trial_id"])
         if not file.is_file():
             raise VideoError(
                 f"{file}: no policy kept for {name}, seed {seed} (run before policies were kept?)"
             )
-        spec = store.read(store.record_path(results_dir, row["trial_id"])).spec
+        spec = record.spec
         label = shown[name].label + (" (true reward)" if row["role"] == "ceiling" else "")
         result.append(Panel(f"{label} {row['normalized']:.2f}", policies.load(file), env_id, spec))
     return result

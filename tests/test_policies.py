@@ -4,7 +4,6 @@ import pytest
 import torch
 
 from bench import policies, store
-from bench.reuse import reuse
 from bench.rl.rollout import evaluate
 from bench.runner import run_suite
 from bench.suite import expand, load_suite
@@ -48,17 +47,18 @@ def test_a_saved_policy_reproduces_its_records_evaluation(finished):
             env.close()
 
 
-def test_reuse_copies_the_policy_with_the_record(finished):
+def test_a_linked_record_finds_its_policy_where_it_ran(finished):
     specs, root = finished
     (root / "t.yaml").write_text((root / "s.yaml").read_text().replace("name: keep", "name: other"))
     others = expand(load_suite(root / "t.yaml"))
-    assert reuse(others, root / "copy", [root / "res"]) == len(others)
-    for mine, theirs in zip(specs, others, strict=True):
-        saved = policies.path(root / "res", mine.trial_id)
-        copied = policies.path(root / "copy", theirs.trial_id)
-        assert copied.exists() == saved.exists()
-        if saved.exists():
-            assert copied.read_bytes() == saved.read_bytes()
+    summary = run_suite(others, root / "copy", jobs=1, progress=False, priced_by=root)
+    assert summary.linked == len(others) and summary.done == 0
+    for theirs in others:
+        record = store.read(store.record_path(root / "copy", theirs.trial_id))
+        assert record.stored_in == str(root / "res") and record.spec.suite == "other"
+        saved = policies.path(record.stored_in, theirs.trial_id)
+        assert saved.exists() == (theirs.algorithm not in ("random", "expert"))
+        assert not policies.path(root / "copy", theirs.trial_id).exists()  # one file, not two
 
 
 def test_a_video_has_a_panel_per_policy_and_a_frame_per_step(finished, tmp_path, cli):

@@ -319,11 +319,10 @@ def test_a_state_trials_estimate_never_goes_by_a_pixel_trials_cost():
     assert row.seconds == pytest.approx(500.0) and "B (pixels)" in row.basis
 
 
-def test_reuse_matches_a_variant_by_its_settings_not_its_label(tmp_path):
-    """A labelled variant in a screen and the plain entry of a suite whose env sets the same
-    settings are one trial: the record is copied under the suite's own spec."""
-    from bench.reuse import reuse
-
+def test_two_suites_that_ask_for_the_same_trial_share_one_record(tmp_path):
+    """A trial is identified by what decides it, not by its suite or label: a labelled variant
+    in a screen and the plain entry of a suite whose env sets the same settings are one trial,
+    run once and linked into the second suite's folder, where it reads as that suite's."""
     tiny = f"envs: {{{PENDULUM}: {{budget: 2048, trpo: {{n_envs: 2}}}}}}\ndemos: [1]\n"
     screen = write_suite(
         tmp_path,
@@ -336,53 +335,47 @@ def test_reuse_matches_a_variant_by_its_settings_not_its_label(tmp_path):
         "figure",
         tiny + "algorithms: [random, expert, survival]\nseeds: 2\neval_episodes: 2\n",
     )
-    assert (
-        run_suite(expand(load_suite(screen)), tmp_path / "screen", jobs=1, progress=False).failed
-        == 0
-    )
+    results = tmp_path / "results"
+    first = run_suite(expand(load_suite(screen)), results / "screen", jobs=1, progress=False)
+    assert first.failed == 0 and first.done == 6
     specs = expand(load_suite(suite))
-    assert reuse(specs, tmp_path / "figure", [tmp_path / "screen"]) == 6
-    copied = {r.spec.algorithm: r for r in store.scan(tmp_path / "figure") if r.spec.seed == 0}
-    assert copied["survival"].spec.label is None and copied["survival"].spec.suite == "figure"
-    source = {r.spec.shown: r for r in store.scan(tmp_path / "screen") if r.spec.seed == 0}
-    assert copied["survival"].returns == source["survival-e2"].returns
+    second = run_suite(specs, results / "figure", jobs=1, progress=False, priced_by=results)
+    assert (second.done, second.linked, second.skipped) == (0, 6, 6)
+    files = sorted(store.trials_dir(results / "figure").glob("*.json"))
+    assert len(files) == 6 and all(store.LINK in json.loads(f.read_text()) for f in files)
+    linked = {r.spec.algorithm: r for r in store.scan(results / "figure") if r.spec.seed == 0}
+    assert linked["survival"].spec.label is None and linked["survival"].spec.suite == "figure"
+    assert linked["survival"].label == "Survival"
+    assert linked["survival"].stored_in == str(results / "screen")
+    source = {r.spec.shown: r for r in store.scan(results / "screen") if r.spec.seed == 0}
+    assert linked["survival"].returns == source["survival-e2"].returns
+    assert linked["survival"].trial_id == source["survival-e2"].trial_id
+    again = run_suite(specs, results / "figure", jobs=1, progress=False, priced_by=results)
+    assert (again.done, again.linked, again.skipped) == (0, 0, 6)  # linked once, found after
 
 
-def test_reuse_copies_the_same_trials_from_another_suite_and_runs_the_rest(
-    tmp_path, cli, install_plugin
-):
+def test_a_run_links_what_another_suite_finished_and_runs_the_rest(tmp_path, cli, install_plugin):
     env = install_plugin(tmp_path / "site", "flaky", "flaky = flaky_ifo", {"flaky_ifo": FLAKY})
     body = f"envs: {{{PENDULUM}: {{budget: 1000}}}}\ndemos: [1]\nalgorithms: [random, flaky]\n"
     first = write_suite(tmp_path, "first", body + "seeds: 2\neval_episodes: 2\n")
-    # flaky fails: failed records are never copied
-    a = ("run", str(first), "--results", str(tmp_path / "a"), "--jobs", "1")
+    # flaky fails: failed records are never linked
+    a = ("run", str(first), "--results", str(tmp_path / "res" / "a"), "--jobs", "1")
     assert cli(*a, env=env).returncode == 1
     second = write_suite(tmp_path, "second", body + "seeds: 3\neval_episodes: 2\n")
     other = write_suite(tmp_path, "other", body + "seeds: 3\neval_episodes: 3\n")
-    for suite, copied in ((second, 2), (other, 0)):  # other evaluates differently: not the same
-        out = cli(
-            "run",
-            str(suite),
-            "--results",
-            str(tmp_path / suite.stem),
-            "--jobs",
-            "1",
-            "--reuse",
-            str(tmp_path / "a"),
-            env=env,
-        )
-        assert f"{copied} finished trials copied from" in out.stderr
-        assert f"{3 - copied} trials done, 3 failed" in out.stdout
-    old = {(r.spec.seed, r.spec.algorithm): r for r in store.scan(tmp_path / "a")}
-    new = {(r.spec.seed, r.spec.algorithm): r for r in store.scan(tmp_path / "second")}
+    for suite, linked in ((second, 2), (other, 0)):  # other evaluates differently: not the same
+        results = tmp_path / "res" / suite.stem
+        estimate = cli("run", str(suite), "--results", str(results), "--estimate", env=env)
+        assert f"{6 - linked} of 6 trials pending" in estimate.stdout
+        out = cli("run", str(suite), "--results", str(results), "--jobs", "1", env=env)
+        assert f"{3 - linked} trials done, 3 failed" in out.stdout
+        assert (f"{linked} of them by other suites (linked)" in out.stdout) == bool(linked)
+    old = {(r.spec.seed, r.spec.algorithm): r for r in store.scan(tmp_path / "res" / "a")}
+    new = {(r.spec.seed, r.spec.algorithm): r for r in store.scan(tmp_path / "res" / "second")}
     for seed in (0, 1):
-        copy, source = new[seed, "random"], old[seed, "random"]
-        assert copy.spec == dataclasses.replace(source.spec, suite="second")
-        assert copy.returns == source.returns and copy.copied_from.endswith(
-            f"{source.trial_id}.json"
-        )
-    assert new[2, "random"].copied_from is None  # no such trial there: it ran
+        link, source = new[seed, "random"], old[seed, "random"]
+        assert link.spec == dataclasses.replace(source.spec, suite="second")
+        assert link.returns == source.returns and link.stored_in.endswith("a")
+    assert new[2, "random"].stored_in is None  # no such trial there: it ran
     assert sorted(new) == [(s, a) for s in range(3) for a in ("flaky", "random")]  # all, once
     assert {r.spec.suite for r in new.values()} == {"second"}
-    out = cli("run", str(second), "--reuse", str(tmp_path / "nowhere"), env=env)
-    assert out.returncode == 2 and "nowhere: no trial records to reuse" in out.stderr

@@ -414,7 +414,7 @@ def test_labelled_variants_of_one_algorithm(tmp_path):
     variant = next(s for s in specs if s.label == "ifo-unnormalized")
     assert variant.algorithm == "ifo" and variant.hyperparams["normalize"] is False
     plain = next(s for s in specs if s.label is None)
-    assert '"label"' not in plain.canonical()  # ids of unlabelled specs are as before labels
+    assert '"label"' not in plain.identity()  # a label names a trial; it does not decide it
     assert len({s.trial_id for s in specs}) == len(specs)
     assert {s.shown for s in select(specs, "x", algorithm=["ifo-unnormalized"])} == {
         "ifo-unnormalized"
@@ -575,35 +575,24 @@ def test_an_envs_hyperparams_reach_every_algorithm_that_has_them_there_and_no_ot
             assert (spec.hyperparams["disc_lr"], spec.hyperparams["n_envs"]) == want
 
 
-@dataclass
-class IfoConfigLater(IfoConfig):
-    """IfoConfig with a setting added after its records were made."""
-
-    scale: float = registry.added_later(1.0)
-
-
-def test_a_setting_added_later_keeps_the_ids_of_records_made_before_it(tmp_path):
-    raw = base()
-    raw["envs"][HOPPER]["hyperparams"] = {"lr": 0.02}  # resolved: the full config in the id
-    path = write(tmp_path, raw)
-    before = [s.trial_id for s in expand(load_suite(path)) if s.algorithm == "ifo"]
-    registry._ALGORITHMS["ifo"] = registry.Algorithm("ifo", _train, IfoConfigLater, "states")
-    after = [s for s in expand(load_suite(path)) if s.algorithm == "ifo"]
-    assert [s.trial_id for s in after] == before
-    assert any("steps" in s.hyperparams for s in after)  # resolved, and without the new key
-    assert not any("scale" in s.hyperparams for s in after)
-    raw["algorithms"][2] = {"ifo": {"lr": 0.01, "scale": 1.0}}  # its default, spelled out
-    spelled = [s for s in expand(load_suite(write(tmp_path, raw))) if s.algorithm == "ifo"]
-    assert [s.trial_id for s in spelled] == before
-    raw["algorithms"][2] = {"ifo": {"lr": 0.01, "scale": 2.0}}
-    changed = [s for s in expand(load_suite(write(tmp_path, raw))) if s.algorithm == "ifo"]
-    assert not {s.trial_id for s in changed} & set(before)  # away from its default: new trials
+def test_a_trials_id_is_what_decides_it_not_the_suite_or_label_that_asks_for_it(tmp_path):
+    raw = base() | {"name": "one"}
+    one = expand(load_suite(write(tmp_path, raw)))
+    mine = {"algorithm": "ifo", "label": "mine", "lr": 0.01}
+    renamed = raw | {"name": "two", "algorithms": ["random", "expert", mine, "with-actions"]}
+    two = expand(load_suite(write(tmp_path, renamed, "two.yaml")))
+    assert [s.trial_id for s in one] == [s.trial_id for s in two]
+    assert {s.suite for s in two} == {"two"} and "mine" in {s.label for s in two}
+    raw["algorithms"][2] = {"ifo": {"lr": 0.02}}
+    changed = expand(load_suite(write(tmp_path, raw, "three.yaml")))
+    ids = {s.trial_id for s in one}
+    assert [s.trial_id in ids for s in changed] == [s.algorithm != "ifo" for s in changed]
 
 
-def test_curve_points_sets_the_curves_resolution_and_its_default_keeps_the_ids(tmp_path):
+def test_curve_points_sets_the_curves_resolution(tmp_path):
     raw = base() | {"name": "s"}
     plain = expand(load_suite(write(tmp_path, raw)))
-    assert {s.curve_points for s in plain} == {None}  # None: the runner's CURVE_POINTS
+    assert {s.curve_points for s in plain} == {CURVE_POINTS}
     spelled = expand(load_suite(write(tmp_path, raw | {"curve_points": CURVE_POINTS}, "d.yaml")))
     assert [s.trial_id for s in spelled] == [s.trial_id for s in plain]
     fewer = expand(load_suite(write(tmp_path, raw | {"curve_points": 3}, "f.yaml")))

@@ -31,11 +31,6 @@ def _run(args: argparse.Namespace) -> int:
         return _estimate(specs, results, jobs)
     with store.claim(results):
         print(f"suite {suite.name}: {len(specs)} trials -> {results}/", file=sys.stderr)
-        if args.reuse:
-            from bench.reuse import reuse
-
-            copied = reuse(specs, results, args.reuse)
-            print(f"{copied} finished trials copied from {', '.join(args.reuse)}", file=sys.stderr)
         # Priced as --estimate prices them; a time limit counts from now on.
         limit = None if args.time_limit is None else TimeLimit.starting_now(args.time_limit)
         summary = run_suite(
@@ -51,9 +46,10 @@ def _run(args: argparse.Namespace) -> int:
             priced_by=results.parent,
             snapshot_every=args.snapshot_every,
         )
+    linked = f", {summary.linked} of them by other suites (linked)" if summary.linked else ""
     print(
         f"{summary.done} trials done, {summary.failed} failed, "
-        f"{summary.skipped} already finished (records in {results}/trials)"
+        f"{summary.skipped} already finished{linked} (records in {results}/trials)"
     )
     if summary.paused:
         print(
@@ -72,7 +68,8 @@ def _run(args: argparse.Namespace) -> int:
 
 def _estimate(specs: list, results: Path, jobs: int) -> int:
     """Print what the pending trials would cost, from every record under results/'s parent,
-    less what the snapshots of cut-off trials have behind them."""
+    less what the snapshots of cut-off trials have behind them. Trials another suite's folder
+    has finished are not pending: a run links them."""
     from bench import store
     from bench.costs import estimate
     from bench.runner import pending
@@ -80,9 +77,13 @@ def _estimate(specs: list, results: Path, jobs: int) -> int:
 
     finished = {r.trial_id: r.status for r in store.scan(results)}
     todo = pending(specs, finished, retry_failed=False)
+    elsewhere = store.find(results.parent, {s.trial_id for s in todo}, besides=results)
+    todo = [s for s in todo if s.trial_id not in elsewhere]
     done_before = SnapshotPlan.of(results).done_before(todo)
     rows = estimate(todo, store.scan_under(results.parent), done_before)
     print(f"{len(todo)} of {len(specs)} trials pending -> {results}/")
+    if elsewhere:
+        print(f"{len(elsewhere)} more finished by other suites' runs: linked, not run again")
     width = max([36, *(len(r.env_id) for r in rows)])
     print(
         f"{'env':{width}s} {'algorithm':14s} {'trials':>6s} {'per trial':>10s} {'core-h':>7s}  basis"
@@ -147,13 +148,6 @@ def add(sub: argparse._SubParsersAction) -> None:
         "--jobs", type=jobs_count, help="parallel trials (default: the suite's, else all cores)"
     )
     run.add_argument("--retry-failed", action="store_true", help="rerun trials recorded as failed")
-    run.add_argument(
-        "--reuse",
-        action="append",
-        metavar="DIR",
-        help="copy finished records of the same trials (all alike but the suite's name) from"
-        " another results folder instead of running them (repeatable)",
-    )
     run.add_argument(
         "--estimate",
         action="store_true",

@@ -31,7 +31,7 @@ import torch
 import torch.nn.functional as F
 from torch import nn
 
-from bench.registry import Snapshots, added_later
+from bench.registry import Snapshots
 from bench.rl import stateful
 from bench.rl.absorbing import FLAG
 from bench.rl.networks import mlp
@@ -60,7 +60,7 @@ class SACConfig:
     """Envs stepped side by side (one batched actor forward per step)."""
     absorbing: bool = True
     """Terminations lead into an absorbing state (DAC); off: they are masked."""
-    device: str = added_later("cpu")
+    device: str = "cpu"
     """Where the networks and their updates run: "cpu", or "cuda" ("cuda:1") for a GPU. The
     replay buffer and the envs stay in CPU memory; each minibatch goes over as it is sampled."""
 

@@ -11,7 +11,7 @@ from typing import Any
 from bench import registry
 from bench.rl.trpo import TRPOConfig
 from bench.suite.types import AlgorithmEntry, EnvSettings, Suite, SuiteError
-from bench.types import CURVE_POINTS, TrialSpec
+from bench.types import TrialSpec
 
 
 def expand(suite: Suite) -> list[TrialSpec]:
@@ -99,8 +99,7 @@ def _spec(
         dataset=env.dataset,
         observation=env.observation,
         frame_size=env.frame_size,
-        # the default is left out of the spec, so its trials keep the ids they had before
-        curve_points=None if suite.curve_points == CURVE_POINTS else suite.curve_points,
+        curve_points=suite.curve_points,
     )
 
 
@@ -113,7 +112,7 @@ def _hyperparams(env: EnvSettings, algo: AlgorithmEntry) -> dict[str, Any]:
     if env.trpo and issubclass(algorithm.config, TRPOConfig):
         from_env = {**env.trpo, **from_env}
     if not from_env:
-        return _without_added_later_defaults(algorithm, algo.hyperparams)
+        return dict(algo.hyperparams)
     return _resolve(algorithm, {**from_env, **algo.overrides})
 
 
@@ -123,15 +122,5 @@ def _fields(config: type) -> dict[str, dataclasses.Field]:
 
 
 def _resolve(algo: registry.Algorithm, overrides: dict[str, Any]) -> dict[str, Any]:
-    # Specs carry the full resolved config, defaults included: a changed default is a new id.
-    # Except a setting added later (`registry.added_later`), left out at its default, which can
-    # never change: the records made before it existed ran at it and keep their ids.
-    resolved = json.loads(json.dumps(dataclasses.asdict(algo.make_config(overrides))))
-    return _without_added_later_defaults(algo, resolved)
-
-
-def _without_added_later_defaults(algo: registry.Algorithm, hyperparams: dict) -> dict:
-    """A new dict of `hyperparams` less the settings added later that are at their defaults
-    (those records ran at them before the settings existed), however the suite spelled them."""
-    defaults = registry.added_later_defaults(algo.config)
-    return {k: v for k, v in hyperparams.items() if k not in defaults or v != defaults[k]}
+    """The full config, defaults included, as JSON: a changed default is a new trial."""
+    return json.loads(json.dumps(dataclasses.asdict(algo.make_config(overrides))))
