@@ -9,7 +9,7 @@ repr), keyed by what the trial is rather than by its id (ids may change in a ref
     python benchmarks/identity.py --out after.json --compare before.json
 
 `--compare` prints the trials that differ and exits 1 if any does. Same machine only:
-floats differ between CPUs.
+floats differ between CPUs. Logs of wall-clock time (`collect_s`, `update_s`) are left out.
 """
 
 from __future__ import annotations
@@ -33,14 +33,31 @@ def key(spec) -> str:
     return f"{seen} {spec.label or spec.algorithm} demos={spec.n_demos} seed={spec.seed}"
 
 
+def timing(key: str) -> bool:
+    """Logs of wall-clock seconds (`collect_s`, `update_s`): measured, never reproduced."""
+    return key.endswith("_s")
+
+
 def fingerprint(result) -> dict:
     return {
         "status": result.status,
         "returns": [repr(float(r)) for r in result.returns],
         "curve": [[p.env_steps, repr(float(p.mean_return))] for p in result.curve],
-        "logs": {k: [repr(float(v)) for v in vs] for k, vs in sorted(result.logs.items())},
+        "logs": {
+            k: [repr(float(v)) for v in vs]
+            for k, vs in sorted(result.logs.items())
+            if not timing(k)
+        },
         "env_steps": result.env_steps,
         "traceback": (result.traceback or "").strip().splitlines()[-1:],
+    }
+
+
+def untimed(prints: dict) -> dict:
+    """Fingerprints without timing logs (files written before they were left out hold them)."""
+    return {
+        k: {**v, "logs": {f: x for f, x in v["logs"].items() if not timing(f)}}
+        for k, v in prints.items()
     }
 
 
@@ -62,7 +79,7 @@ def main(argv: list[str] | None = None) -> int:
     args.out.write_text(json.dumps(prints, indent=1, sort_keys=True))
     if args.compare is None:
         return 0
-    before = json.loads(args.compare.read_text())
+    before = untimed(json.loads(args.compare.read_text()))
     differ = [k for k in sorted(set(before) | set(prints)) if before.get(k) != prints.get(k)]
     for k in differ:
         print(f"differs: {k}")
