@@ -46,6 +46,7 @@ from bench.rl.rollout import Batch, Rewards
 from bench.rl.shared_trunk import make_trpo
 from bench.rl.trpo import train
 from bench.types import Demos
+from bench.validate import above, at_least
 
 REWARDS: dict[str, Callable[[torch.Tensor], torch.Tensor]] = {
     "-log(1-D)": lambda logit: F.softplus(logit),  # -log(1 - sigmoid(x)) = softplus(x) > 0
@@ -59,22 +60,84 @@ DISC_NORMS = ("policy", "expert")
 
 
 @dataclass
-class AdversarialConfig(ImitationTRPOConfig):
-    """The imitators' TRPO settings (inherited, shared with the survival control) plus D's."""
+class DiscriminatorConfig:
+    """D's settings, the same fields and checks for every adversarial learner whatever its
+    optimizer (TRPO's GAIfO and GAIL, SAC's, OPOLO's TD3): one D, one training step
+    (`discriminator_loss`)."""
 
     disc_hidden: tuple[int, ...] = (100, 100)
     """Hidden layer sizes of the discriminator MLP (tanh)."""
     disc_lr: float = 3e-4
     """Adam learning rate of the discriminator."""
+    grad_penalty: float = 10.0
+    """Weight of a gradient penalty on expert/policy interpolates (smooths D); 0 disables it."""
+    gp_target: float = 0.0
+    """Gradient norm the penalty pulls towards: 0 (zero-centred) or 1 (WGAN-GP style)."""
+    disc_entropy: float = 0.0
+    """Weight of a bonus on the entropy of D's predictions, which keeps D from certainty
+    (OPOLO's 0.001); 0: none."""
+
+    def __post_init__(self) -> None:
+        self.disc_hidden = tuple(self.disc_hidden)  # YAML gives lists
+        above(self, 0, "disc_lr")
+        at_least(self, 0, "grad_penalty", "gp_target", "disc_entropy")
+
+
+def discriminator_loss(
+    net: nn.Module,
+    policy: torch.Tensor,
+    expert: torch.Tensor,
+    cfg: DiscriminatorConfig,
+    mix_weights: Callable[[int], torch.Tensor],
+) -> tuple[torch.Tensor, dict[str, torch.Tensor]]:
+    """D's loss on one minibatch of each side, (N, F) feature rows of the policy's and the
+    expert's, and its parts: binary cross-entropy with the expert labelled 1, less
+    `disc_entropy` times the entropy of D's predictions, plus `grad_penalty` times
+    (||grad D|| - gp_target)^2 on random interpolates (`mix_weights(N)` -> (N, 1) in [0, 1),
+    drawn only where there is a penalty). `net` maps rows to (N, 1) logits."""
+    logit_p, logit_e = net(policy).squeeze(-1), net(expert).squeeze(-1)
+    bce = F.binary_cross_entropy_with_logits(
+        logit_p, torch.zeros_like(logit_p)
+    ) + F.binary_cross_entropy_with_logits(logit_e, torch.ones_like(logit_e))
+    loss = bce
+    if cfg.disc_entropy > 0:
+        logits = torch.cat([logit_p, logit_e])
+        entropy = -(
+            torch.sigmoid(logits) * F.logsigmoid(logits)
+            + torch.sigmoid(-logits) * F.logsigmoid(-logits)
+        ).mean()
+        loss = loss - cfg.disc_entropy * entropy
+    penalty = torch.zeros(())
+    if cfg.grad_penalty > 0:
+        # On normalized inputs: raw PyBullet features with tiny variance would make the
+        # gradient w.r.t. raw inputs huge and the penalty would swamp the classifier.
+        alpha = mix_weights(len(policy))
+        mix = (alpha * expert + (1 - alpha) * policy).detach().requires_grad_(True)
+        grad = torch.autograd.grad(net(mix).sum(), mix, create_graph=True)[0]
+        penalty = (grad.norm(dim=1) - cfg.gp_target).square().mean()
+        loss = loss + cfg.grad_penalty * penalty
+    return loss, {"bce": bce, "penalty": penalty, "logit_p": logit_p, "logit_e": logit_e}
+
+
+def discriminator_log(parts: dict[str, torch.Tensor]) -> dict[str, float]:
+    """What every adversarial learner logs of D's last step."""
+    return {
+        "disc_loss": parts["bce"].item(),
+        "disc_acc_policy": (parts["logit_p"] < 0).float().mean().item(),
+        "disc_acc_expert": (parts["logit_e"] > 0).float().mean().item(),
+    }
+
+
+@dataclass
+class AdversarialConfig(ImitationTRPOConfig, DiscriminatorConfig):
+    """The imitators' TRPO settings (inherited, shared with the survival control), D's, and how
+    the on-policy loop trains D and rewards the policy."""
+
     disc_steps: int = 5
     """Discriminator minibatch steps per policy update. A task with few updates in its budget
     wants more: the suites give InvertedPendulum 25 (README, "D's pace per task")."""
     disc_minibatch: int = 256
     """Policy samples (and as many expert samples) per discriminator step."""
-    grad_penalty: float = 10.0
-    """Weight of a gradient penalty on expert/policy interpolates (smooths D); 0 disables it."""
-    gp_target: float = 0.0
-    """Gradient norm the penalty pulls towards: 0 (zero-centred) or 1 (WGAN-GP style)."""
     reward: str = "log D - log(1-D)"
     """Policy reward as a function of D = P(expert): "log D - log(1-D)" (D's logit: either sign,
     so with absorbing states it pays neither for surviving nor for falling), "-log(1-D)" (always
@@ -94,6 +157,7 @@ class AdversarialConfig(ImitationTRPOConfig):
 
     def __post_init__(self) -> None:
         super().__post_init__()
+        DiscriminatorConfig.__post_init__(self)
         if self.disc_norm not in DISC_NORMS:
             raise ValueError(
                 f"disc_norm must be one of {', '.join(map(repr, DISC_NORMS))}, not {self.disc_norm!r}"
@@ -101,15 +165,12 @@ class AdversarialConfig(ImitationTRPOConfig):
         for name in ("disc_steps", "disc_minibatch"):
             if getattr(self, name) < 1:
                 raise ValueError(f"{name} must be >= 1, not {getattr(self, name)}")
-        if not (self.disc_lr > 0 and self.grad_penalty >= 0):
-            raise ValueError("need disc_lr > 0 and grad_penalty >= 0")
         if not 0.5 <= self.disc_pause_above <= 1:
             raise ValueError(f"disc_pause_above must be in [0.5, 1], not {self.disc_pause_above}")
         if self.reward not in REWARDS:
             raise ValueError(
                 f"reward must be one of {', '.join(map(repr, REWARDS))}, not {self.reward!r}"
             )
-        self.disc_hidden = tuple(self.disc_hidden)
 
 
 def disc_normalizer(
@@ -198,31 +259,19 @@ def discriminator_step(
             idx = torch.randint(len(x), (cfg.disc_minibatch,), generator=gen)
         return disc.inputs(x.map(lambda field: field[idx]))
 
+    def mix_weights(n: int) -> torch.Tensor:
+        return torch.rand(n, 1, generator=gen)
+
     for _ in range(cfg.disc_steps):
         p, e = minibatch(policy_x), minibatch(expert_x)
-        logit_p, logit_e = disc.net(p).squeeze(-1), disc.net(e).squeeze(-1)
-        bce = F.binary_cross_entropy_with_logits(
-            logit_p, torch.zeros_like(logit_p)
-        ) + F.binary_cross_entropy_with_logits(logit_e, torch.ones_like(logit_e))
-        penalty = torch.zeros(())
-        if cfg.grad_penalty > 0:
-            # On normalized inputs: raw PyBullet features with tiny variance would make the
-            # gradient w.r.t. raw inputs huge and the penalty would swamp the classifier.
-            alpha = torch.rand(len(p), 1, generator=gen)
-            mix = (alpha * e + (1 - alpha) * p).detach().requires_grad_(True)
-            grad = torch.autograd.grad(disc.net(mix).sum(), mix, create_graph=True)[0]
-            penalty = (grad.norm(dim=1) - cfg.gp_target).square().mean()
+        loss, parts = discriminator_loss(disc.net, p, e, cfg, mix_weights)
         if pause:  # the first minibatch's losses, for the log
             break
         opt.zero_grad()
-        (bce + cfg.grad_penalty * penalty).backward()
+        loss.backward()
         opt.step()
-    return {
-        "disc_loss": bce.item(),
-        "disc_grad_penalty": penalty.item(),
-        "disc_acc_policy": (logit_p < 0).float().mean().item(),
-        "disc_acc_expert": (logit_e > 0).float().mean().item(),
-    }
+    loss, acc_policy, acc_expert = discriminator_log(parts).items()
+    return dict([loss, ("disc_grad_penalty", parts["penalty"].item()), acc_policy, acc_expert])
 
 
 def expert_transitions(

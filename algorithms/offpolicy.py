@@ -18,9 +18,15 @@ from typing import Any
 
 import numpy as np
 import torch
-import torch.nn.functional as F
 
-from algorithms.adversarial import REWARDS, Discriminator, Features
+from algorithms.adversarial import (
+    REWARDS,
+    Discriminator,
+    DiscriminatorConfig,
+    Features,
+    discriminator_log,
+    discriminator_loss,
+)
 from algorithms.gaifo import state_transition
 from algorithms.gail import state_action
 from bench.registry import Logger, Policy, Task, register, snapshots_of
@@ -36,25 +42,17 @@ class OffPolicyConfig(sac.SACConfig):
 
 
 @dataclass
-class OffPolicyAdversarialConfig(OffPolicyConfig):
-    """The off-policy imitators' SAC settings plus D's (as the on-policy learners' D)."""
+class OffPolicyAdversarialConfig(OffPolicyConfig, DiscriminatorConfig):
+    """The off-policy imitators' SAC settings plus D's (the on-policy learners' D)."""
 
-    disc_hidden: tuple[int, ...] = (100, 100)
-    """Hidden layer sizes of the discriminator MLP (tanh)."""
-    disc_lr: float = 3e-4
-    """Adam learning rate of the discriminator."""
-    grad_penalty: float = 10.0
-    """Weight of the zero-centred gradient penalty on expert/policy interpolates."""
     reward: str = "log D - log(1-D)"
     """Reward as a function of D: see `algorithms.adversarial.AdversarialConfig.reward`."""
 
     def __post_init__(self) -> None:
         super().__post_init__()
-        self.disc_hidden = tuple(self.disc_hidden)
+        DiscriminatorConfig.__post_init__(self)
         if self.reward not in REWARDS:
             raise ValueError(f"reward must be one of {', '.join(map(repr, REWARDS))}")
-        if not (self.disc_lr > 0 and self.grad_penalty >= 0):
-            raise ValueError("need disc_lr > 0 and grad_penalty >= 0")
 
 
 def sac_budget(config: OffPolicyConfig) -> int:
@@ -122,25 +120,15 @@ class CurrentDReward(stateful.Stateful):
         e_batch = sample_of(self.expert, len(batch.obs), self.gen)
         p = disc.inputs(replay_transitions(batch))
         e = disc.inputs(replay_transitions(e_batch))
-        logit_p, logit_e = disc.net(p).squeeze(-1), disc.net(e).squeeze(-1)
-        bce = F.binary_cross_entropy_with_logits(
-            logit_p, torch.zeros_like(logit_p)
-        ) + F.binary_cross_entropy_with_logits(logit_e, torch.ones_like(logit_e))
-        alpha = uniform((len(p), 1), self.gen, p.device)
-        mix = (alpha * e + (1 - alpha) * p).detach().requires_grad_(True)
-        grad = torch.autograd.grad(disc.net(mix).sum(), mix, create_graph=True)[0]
-        penalty = grad.norm(dim=1).square().mean()
+        loss, parts = discriminator_loss(
+            disc.net, p, e, cfg, lambda n: uniform((n, 1), self.gen, p.device)
+        )
         self.opt.zero_grad()
-        (bce + cfg.grad_penalty * penalty).backward()
+        loss.backward()
         self.opt.step()
         with torch.no_grad():  # the reward of this very minibatch, from D as it is now
             rewards = self.reward(disc.net(p).squeeze(-1))
-        logged = {
-            "disc_loss": bce.item(),
-            "disc_acc_policy": (logit_p < 0).float().mean().item(),
-            "disc_acc_expert": (logit_e > 0).float().mean().item(),
-            "reward_mean": rewards.mean().item(),
-        }
+        logged = {**discriminator_log(parts), "reward_mean": rewards.mean().item()}
         return sac.Logged(rewards, logged)
 
     def parts(self) -> dict[str, Any]:

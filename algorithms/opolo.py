@@ -35,6 +35,7 @@ import torch
 import torch.nn.functional as F
 from torch import nn
 
+from algorithms.adversarial import DiscriminatorConfig, discriminator_log, discriminator_loss
 from algorithms.offpolicy import (
     OffPolicyConfig,
     expert_replay,
@@ -47,11 +48,11 @@ from bench.registry import Logger, Policy, Task, register
 from bench.rl import sac, stateful
 from bench.rl.networks import RunningNorm, mlp
 from bench.types import Demos
-from bench.validate import above, at_least
+from bench.validate import at_least
 
 
 @dataclass
-class OPOLOConfig(OffPolicyConfig):
+class OPOLOConfig(OffPolicyConfig, DiscriminatorConfig):
     hidden: tuple[int, ...] = (400, 300)
     batch_size: int = 100
     learning_starts: int = 10_000
@@ -73,8 +74,8 @@ class OPOLOConfig(OffPolicyConfig):
     """D's Adam steps each time it trains."""
     disc_entropy: float = 0.001
     """Weight of the entropy bonus on D's predictions."""
-    grad_penalty: float = 10.0
-    """Weight of the gradient penalty (||grad D|| - 1)^2 on expert/agent interpolates."""
+    gp_target: float = 1.0
+    """The gradient penalty pulls ||grad D|| towards 1 on expert/agent interpolates."""
     inverse_l2: float = 1e-3
     """Weight decay of the inverse model."""
     inverse_pretrain: int = 2_500
@@ -86,11 +87,10 @@ class OPOLOConfig(OffPolicyConfig):
 
     def __post_init__(self) -> None:
         super().__post_init__()
-        self.disc_hidden = tuple(self.disc_hidden)
-        at_least(self, 0, "exploration_noise", "alpha", "inverse_weight", "disc_entropy")
-        at_least(self, 0, "grad_penalty", "inverse_l2", "inverse_pretrain")
+        DiscriminatorConfig.__post_init__(self)
+        at_least(self, 0, "exploration_noise", "alpha", "inverse_weight")
+        at_least(self, 0, "inverse_l2", "inverse_pretrain")
         at_least(self, 1, "policy_delay", "disc_steps", "inverse_steps", "train_every")
-        above(self, 0, "disc_lr")
 
 
 def normalized_pair(norm: RunningNorm, batch: sac.ReplayBatch) -> torch.Tensor:
@@ -200,28 +200,13 @@ class OPOLO(stateful.Stateful):
             agent = self.buffer.sample(self.cfg.batch_size, self.device)
             p = self.disc.inputs(agent)
             e = self.disc.inputs(self._expert_batch(len(p)))
-            logit_p, logit_e = self.disc(p), self.disc(e)
-            bce = F.binary_cross_entropy_with_logits(
-                logit_p, torch.zeros_like(logit_p)
-            ) + F.binary_cross_entropy_with_logits(logit_e, torch.ones_like(logit_e))
-            logits = torch.cat([logit_p, logit_e])
-            entropy = -(
-                torch.sigmoid(logits) * F.logsigmoid(logits)
-                + torch.sigmoid(-logits) * F.logsigmoid(-logits)
-            ).mean()
-            mix_weight = uniform((len(p), 1), self.gen, self.device)
-            mix = (mix_weight * e + (1 - mix_weight) * p).detach().requires_grad_(True)
-            grad = torch.autograd.grad(self.disc(mix).sum(), mix, create_graph=True)[0]
-            penalty = (grad.norm(dim=1) - 1).square().mean()
-            loss = bce - self.cfg.disc_entropy * entropy + self.cfg.grad_penalty * penalty
+            loss, parts = discriminator_loss(
+                self.disc.net, p, e, self.cfg, lambda n: uniform((n, 1), self.gen, self.device)
+            )
             self.disc_opt.zero_grad()
             loss.backward()
             self.disc_opt.step()
-        self.stats.update(
-            disc_loss=bce.item(),
-            disc_acc_policy=(logit_p < 0).float().mean().item(),
-            disc_acc_expert=(logit_e > 0).float().mean().item(),
-        )
+        self.stats.update(discriminator_log(parts))
 
     def train_inverse(self, steps: int) -> None:
         for _ in range(steps):

@@ -21,6 +21,7 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import json
+import os
 import sys
 from collections import defaultdict
 from pathlib import Path
@@ -53,6 +54,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--dry-run", action="store_true", help="change nothing")
     args = parser.parse_args(argv)
     renamed = filled = 0
+    moved: dict[Path, Path] = {}  # record -> its new name
     copies: list[tuple[Path, Path, str]] = []  # (folder, record, copied from)
     where: dict[str, list[Path]] = defaultdict(list)  # new id -> records of it
     for folder in store.find_result_dirs(args.root):
@@ -70,6 +72,8 @@ def main(argv: list[str] | None = None) -> int:
             if new == raw and target == path:
                 continue
             renamed += target != path
+            if target != path:
+                moved[Path(os.path.normpath(path))] = target
             if args.dry_run:
                 continue
             if target != path and target.exists():
@@ -83,6 +87,8 @@ def main(argv: list[str] | None = None) -> int:
             atomic.write_text(target, json.dumps(new, indent=1))
             if target != path:
                 path.unlink()
+    if not args.dry_run:
+        _follow(args.root, moved)
     linked = 0
     for folder, record, source in copies:
         # the record it was copied from, renamed to the same new id in its own folder
@@ -105,6 +111,21 @@ def main(argv: list[str] | None = None) -> int:
         f" {linked} linked to the one record"
     )
     return 0
+
+
+def _follow(root: Path, moved: dict[Path, Path]) -> None:
+    """Point every link whose record was renamed at its new name, itself renamed to match."""
+    for folder in store.find_result_dirs(root):
+        for path in sorted(store.trials_dir(folder).glob("*.json")):
+            raw = json.loads(path.read_text())
+            target = Path(os.path.normpath(path.parent / raw.get(store.LINK, path.name)))
+            if store.LINK not in raw or target not in moved:
+                continue
+            new = moved[target]
+            raw[store.LINK] = os.path.relpath(new, path.parent)
+            atomic.write_text(path.with_name(new.name), json.dumps(raw, indent=1))
+            if path.name != new.name:
+                path.unlink()
 
 
 def _same_results(a: Path, b: Path) -> bool:
