@@ -145,6 +145,9 @@ SHIPPED = Path(__file__).resolve().parent.parent / "results" / "experts" / PENDU
     ("args", "message"),
     [
         ([], "already has an expert"),  # the shipped one: only --out or --replace
+        (["--out", str(SHIPPED)], "already has an expert"),  # named as a path, the same
+        (["--out", str(SHIPPED.parent / "HopperBulletEnv-v0")], "is not InvertedPendulum"),
+        (["--out", str(SHIPPED.parent / "new")], "only into its own env's folder"),
         (["--replace", "--steps", "2000"], "less than one TRPO batch"),
         (["--replace", "--hyperparams", '{"n_envs": 0}'], "n_envs must be >= 1"),
         (["--replace", "--hyperparams", '{"gamma": 2}'], "bad TRPO settings"),
@@ -152,11 +155,12 @@ SHIPPED = Path(__file__).resolve().parent.parent / "results" / "experts" / PENDU
     ],
 )
 def test_experts_train_never_damages_the_shipped_expert(args, message, bench_here):
-    before = snapshot(SHIPPED)
+    experts = SHIPPED.parent
+    before = {d.name: snapshot(d) for d in experts.iterdir()}
     out = bench_here("experts", "train", PENDULUM, "--steps", "4096", *args)
     assert out.returncode == 2, out.stderr
     assert message in out.stderr and len(out.stderr.strip().splitlines()) == 1
-    assert snapshot(SHIPPED) == before
+    assert {d.name: snapshot(d) for d in experts.iterdir()} == before
 
 
 def test_experts_train_refuses_a_file_as_its_folder(tmp_path, bench_here):

@@ -32,11 +32,17 @@ def _experts_train(args: argparse.Namespace) -> int:
             f"experts train: --steps {args.steps} is less than one TRPO batch "
             f"({cfg.n_envs} x {cfg.steps_per_env} = {cfg.batch_size} steps): nothing would train"
         )
-    out = args.out or paths.expert_dir(args.env_id)
-    if args.out is None and paths.has_expert(args.env_id) and not args.replace:
+    out = Path(args.out or paths.expert_dir(args.env_id))
+    own = paths.expert_dir(args.env_id)
+    if out.resolve().is_relative_to(paths.EXPERTS_DIR.resolve()) and out.resolve() != own.resolve():
         raise ExpertError(
-            f"experts train: {args.env_id} already has an expert in {out}: pass --out DIR to "
-            "train one beside it, or --replace to overwrite the shipped one"
+            f"experts train: {out} is in the shipped experts' folder but is not {args.env_id}'s"
+            f" ({own}): an expert is saved only into its own env's folder"
+        )
+    if (out / "policy.pt").exists() and not args.replace:
+        raise ExpertError(
+            f"experts train: {out} already has an expert: pass --out DIR to train one"
+            " elsewhere, or --replace to overwrite it"
         )
     # Rebuilt from the parsed arguments, without --out: where it was saved is not how it was trained.
     command = ["bench", "experts", "train", args.env_id, "--steps", str(args.steps)]
