@@ -129,7 +129,7 @@ def run_suite(
     `_jobs`); at the limit every trial in flight that takes snapshots saves one and stops, and
     the rest are left pending."""
     records = list(store.scan(results_dir))
-    have = {r.trial_id: r.status for r in records}
+    have = {r.trial_id: store.status_of(r) for r in records}
     todo = pending(specs, have, retry_failed)
     unlinked = link_finished(todo, results_dir, priced_by)
     linked, todo = len(todo) - len(unlinked), unlinked

@@ -129,6 +129,54 @@ def link(results_dir: str | Path, spec: TrialSpec, label: str, record: str | Pat
     return atomic.write_text(record_path(results_dir, spec.trial_id), text)
 
 
+SPEC_TYPES = {
+    "suite": str,
+    "env_id": str,
+    "algorithm": str,
+    "n_demos": int,
+    "seed": int,
+    "budget": int,
+    "eval_episodes": int,
+    "hyperparams": dict,
+}
+RECORD_TYPES = {"status": str, "returns": list, "curve": list, "env_steps": int, "wall_time": float}
+
+
+def _check_types(raw: Any) -> None:
+    """Raise ValueError naming the first field of a record that has the wrong type: a record
+    edited by hand, or by a broken writer, is left out (`scan`) rather than trusted."""
+
+    def check(where: str, value: Any, kind: type) -> None:
+        if kind is float and value is None:
+            return  # a non-finite number, written as null (`_finite`)
+        number = kind in (int, float) and not isinstance(value, bool)
+        wanted = (int, float) if kind is float else kind
+        if not (isinstance(value, wanted) and (number or kind not in (int, float))):
+            raise ValueError(f"{where} is {value!r}, not {kind.__name__}")
+
+    if not isinstance(raw, dict) or not isinstance(raw.get("spec"), dict):
+        raise ValueError("not a record: no spec")
+    for key, kind in SPEC_TYPES.items():
+        check(f"spec.{key}", raw["spec"].get(key), kind)
+    for key, kind in RECORD_TYPES.items():
+        check(key, raw.get(key), kind)
+    for i, r in enumerate(raw["returns"]):
+        check(f"returns[{i}]", r, float)
+
+
+def copy_folder(results_dir: str | Path, to: str | Path) -> Path:
+    """Copy the records of `results_dir` into `to` (a new folder), each a record of its own: a
+    link is replaced by the record it names, as this suite's. Links name their records
+    relative to their folder, so a folder taken out of its parent (a copy elsewhere, an
+    archive) must be copied this way to stay readable."""
+    to = Path(to)
+    if to.exists():
+        raise FileExistsError(f"{to} exists already")
+    for result in scan(results_dir):
+        write(to, dataclasses.replace(result, stored_in=None))
+    return to
+
+
 def real_path(path: str | Path) -> Path:
     """The record file that `path` stands for: itself, or the one a link names."""
     path = Path(path)
@@ -151,6 +199,7 @@ def read(path: str | Path) -> TrialResult:
         spec = dataclasses.replace(result.spec, suite=raw["suite"], label=raw["spec_label"])
         folder = str(target.parent.parent)
         return dataclasses.replace(result, spec=spec, label=raw["label"], stored_in=folder)
+    _check_types(raw)
     spec = TrialSpec(**raw["spec"])
     role, family, label = raw.get("role"), raw.get("family"), raw.get("label")
     if role is None:  # a record from before records said it: what the registry says now
@@ -273,9 +322,7 @@ def find(
                 result = read(path)
             except (OSError, ValueError, KeyError, TypeError):
                 continue  # a malformed record is `scan`'s to warn about
-            returns = np.asarray(result.returns, dtype=float)
-            finished = result.status == "ok" and returns.size and np.isfinite(returns).all()
-            if finished and result.trial_id == trial_id:
+            if status_of(result) == "ok" and result.trial_id == trial_id:
                 found[trial_id] = real_path(path)
     return found
 
@@ -293,10 +340,13 @@ def scan(results_dir: str | Path) -> Iterator[TrialResult]:
             warnings.warn(f"skipping unreadable trial record {path}: {e!r}", stacklevel=2)
             continue
         if result.trial_id != path.stem:
-            # A renamed file, or TrialSpec gained a field: the record is still good.
+            # A renamed or edited file: which trial it records cannot be trusted.
             warnings.warn(
-                f"{path}: spec hashes to {result.trial_id}, not to its file name", stacklevel=2
+                f"skipping {path}: its spec hashes to {result.trial_id}, not to its file name"
+                " (renamed or edited? scripts/migrate_records.py renames records to their ids)",
+                stacklevel=2,
             )
+            continue
         yield result
 
 
@@ -309,12 +359,18 @@ def _spec_row(r: TrialResult) -> dict[str, Any]:
     return row | shown | described | {"observation": r.spec.observation or "states"}
 
 
-def _trial_row(r: TrialResult) -> dict[str, Any]:
+def status_of(r: TrialResult) -> str:
+    """The record's status, but NO_RETURN for an "ok" one without a finite return (edited, or
+    from a broken writer): no score, listed and retried with the failed ones."""
     returns = np.asarray(r.returns, dtype=float)
-    ok = r.status == "ok" and returns.size > 0 and bool(np.isfinite(returns).all())
-    # An "ok" record without a finite return (edited, or from a broken writer) is no score:
-    # it is listed with the failed ones rather than dropped without a word.
-    status = r.status if ok or r.status != "ok" else NO_RETURN
+    finite = returns.size > 0 and bool(np.isfinite(returns).all())
+    return NO_RETURN if r.status == "ok" and not finite else r.status
+
+
+def _trial_row(r: TrialResult) -> dict[str, Any]:
+    status = status_of(r)
+    ok = status == "ok"
+    returns = np.asarray(r.returns, dtype=float)
     return {
         **_spec_row(r),
         "inputs": r.inputs,

@@ -1,7 +1,6 @@
 """`bench compare RUN REFERENCE`: per-row IQMs with CIs and a verdict, on real records."""
 
 import dataclasses
-import shutil
 from pathlib import Path
 
 import numpy as np
@@ -41,7 +40,7 @@ def test_iqm_difference_of_identical_and_shifted_samples():
 
 def test_identical_folders_agree(tmp_path, cli):
     run = tmp_path / "run"
-    shutil.copytree(REFERENCE, run)
+    store.copy_folder(REFERENCE, run)
     out = cli("compare", str(run), str(REFERENCE), "--reps", "500")
     assert out.returncode == 0, out.stderr
     found = verdicts(out.stdout)
@@ -50,7 +49,7 @@ def test_identical_folders_agree(tmp_path, cli):
 
 def test_gaifo_at_random_level_differs(tmp_path, cli):
     run = tmp_path / "run"
-    shutil.copytree(REFERENCE, run)
+    store.copy_folder(REFERENCE, run)
     records = store.load(run)
     random_returns = records[records.algorithm == "random"].groupby("env_id")["return"]
     random_level = random_returns.mean().to_dict()
@@ -71,7 +70,7 @@ def test_gaifo_at_random_level_differs(tmp_path, cli):
 
 def test_folders_without_overlap_give_one_line(tmp_path, cli):
     run = tmp_path / "run"
-    shutil.copytree(REFERENCE, run)
+    store.copy_folder(REFERENCE, run)
     rewrite(
         run,
         lambda r: dataclasses.replace(

@@ -336,7 +336,11 @@ def test_learners_are_read_as_fractions_of_their_matched_oracle(tmp_path):
             for label, level in (("oracle", 0.8), ("oracle-fast", 0.5), ("gaifo-fast", 0.45)):
                 algorithm = label.split("-")[0]
                 n = 0 if algorithm == "oracle" else 5
-                spec = TrialSpec("synthetic", env_id, algorithm, n, seed, BUDGET, 3, label=label)
+                # a variant is other settings (its label alone would make it the same trial)
+                settings = {"max_kl": 0.02} if label.endswith("fast") else {}
+                spec = TrialSpec(
+                    "synthetic", env_id, algorithm, n, seed, BUDGET, 3, settings, label=label
+                )
                 ret = random + (expert - random) * (level + 0.01 * seed)
                 store.write(results, trial(env_id, "gaifo", 5, seed, spec=spec, returns=[ret]))
     report.write_report(results, reps=REPS)

@@ -219,3 +219,48 @@ def test_scan_under_leaves_out_a_folder_read_already(tmp_path):
     seeds = [r.spec.seed for r in store.scan_under(results, besides=tmp_path / "scratch/offpolicy")]
     assert seeds == [1]
     assert sorted(r.spec.seed for r in store.scan_under(results)) == [1, 2]
+
+
+@pytest.mark.parametrize(
+    ("edit", "named"),
+    [
+        (lambda raw: raw | {"env_steps": "many"}, "env_steps is 'many'"),
+        (lambda raw: raw | {"spec": raw["spec"] | {"seed": "3"}}, "spec.seed is '3'"),
+        (lambda raw: raw | {"returns": ["high"]}, "returns[0] is 'high'"),
+        (lambda raw: raw | {"wall_time": True}, "wall_time is True"),
+        (lambda raw: {k: v for k, v in raw.items() if k != "status"}, "status is None"),
+    ],
+)
+def test_a_malformed_record_is_named_once_and_left_out(tmp_path, edit, named):
+    """A record with a wrong type or a missing field never reaches costs, reports or links."""
+    from bench.costs import CostModel
+
+    folder = tmp_path / "res"
+    good = store.write(folder, result(spec(seed=1)))
+    bad = store.write(folder, result())
+    bad.write_text(json.dumps(edit(json.loads(bad.read_text()))))
+    with pytest.warns(UserWarning) as caught:
+        records = list(store.scan(folder))
+    assert [r.trial_id for r in records] == [good.stem]
+    assert (
+        len(caught) == 1 and named in str(caught[0].message) and bad.name in str(caught[0].message)
+    )
+    with pytest.warns(UserWarning):
+        assert CostModel.of(store.scan(folder)).seconds(spec()) is not None
+        assert list(store.load(folder)["trial_id"]) == [good.stem]
+    assert store.find(tmp_path, {bad.stem, good.stem}) == {good.stem: good}
+
+
+def test_a_renamed_record_is_left_out_and_an_ok_one_without_returns_is_retried(tmp_path):
+    from bench.runner import pending
+
+    path = store.write(tmp_path, result())
+    path.rename(path.with_name("0123456789abcdef.json"))
+    with pytest.warns(UserWarning, match="not to its file name"):
+        assert list(store.scan(tmp_path)) == []
+    empty = store.write(tmp_path, result(spec(seed=2), returns=()))
+    (record,) = [r for r in store.scan(tmp_path) if r.trial_id == empty.stem]
+    have = {record.trial_id: store.status_of(record)}
+    assert have == {empty.stem: store.NO_RETURN}
+    assert pending([record.spec], have, retry_failed=False) == []
+    assert pending([record.spec], have, retry_failed=True) == [record.spec]

@@ -75,7 +75,7 @@ def _estimate(specs: list, results: Path, jobs: int) -> int:
     from bench.runner import pending
     from bench.snapshots import SnapshotPlan
 
-    finished = {r.trial_id: r.status for r in store.scan(results)}
+    finished = {r.trial_id: store.status_of(r) for r in store.scan(results)}
     todo = pending(specs, finished, retry_failed=False)
     elsewhere = store.find(results.parent, {s.trial_id for s in todo}, besides=results)
     todo = [s for s in todo if s.trial_id not in elsewhere]
