@@ -23,7 +23,7 @@ from tqdm import tqdm
 from bench import policies, registry, snapshots, store
 from bench.costs import CostModel, TimeLimit
 from bench.snapshots import SnapshotPlan
-from bench.trial import demo_pool, plan, run_trial
+from bench.trial import demo_pool, plan, run_trial_apart
 from bench.types import TrialSpec
 
 
@@ -71,6 +71,7 @@ def _jobs(
     first: Collection[str] = (),
     limit: TimeLimit | None = None,
     snapshot_plan: SnapshotPlan | None = None,
+    in_workers: bool = False,
 ) -> Iterator:
     """The trials as joblib calls: those of the algorithms `first` (names or labels) before the
     others; within each group, trials resuming from a snapshot first, then kinds with nothing
@@ -99,7 +100,8 @@ def _jobs(
             return
         spec = max(startable, key=order)  # first of equals: suite order
         remaining.remove(spec)
-        yield joblib.delayed(run_trial)(spec, plan(spec).inputs(), tensorboard, snapshot_plan)
+        inputs = plan(spec).inputs()
+        yield joblib.delayed(run_trial_apart)(spec, inputs, tensorboard, snapshot_plan, in_workers)
 
 
 def run_suite(
@@ -180,7 +182,10 @@ def run_suite(
                 workers = jobs if jobs > 0 else os.cpu_count() or 1
             unfinished = {spec.trial_id: spec for spec in todo}
             bar.set_postfix(left=costs.time_left(unfinished.values(), workers))
-            trials = _jobs(todo, costs, tensorboard, first, limit, snapshot_plan)
+            # Each trial runs in a process of its own, forked by the worker (`run_trial_apart`);
+            # loky's workers also die with this driver, so an interrupted run leaves no orphans.
+            in_workers = backend == "loky" and workers > 1
+            trials = _jobs(todo, costs, tensorboard, first, limit, snapshot_plan, in_workers)
             for result in parallel(trials):
                 del unfinished[result.trial_id]
                 if result.status == "paused":  # no record: its snapshot is what is kept

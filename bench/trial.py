@@ -22,6 +22,7 @@ import numpy as np
 import torch
 
 from bench import demos, envs, experts, minari_io, policies, registry, state_match
+from bench.isolate import Died, die_with_parent, isolated
 from bench.pixels import PixelConfig, VideoBeside
 from bench.rl.rollout import evaluate
 from bench.snapshots import SnapshotPlan, TrialPaused
@@ -344,4 +345,33 @@ def run_trial(
         label=label,
         resumed_at=[] if resumed is None else resumed.resumed_at,
         policy=saved if status == "ok" else None,
+    )
+
+
+def run_trial_apart(
+    spec: TrialSpec,
+    inputs: Any,
+    tensorboard: str | Path | None = None,
+    snapshots: SnapshotPlan | None = None,
+    in_worker: bool = False,
+) -> TrialResult:
+    """`run_trial` in a process of its own (`bench.isolate`): where that process dies (a
+    segfault, a kill for memory, an exit inside the algorithm), the trial is recorded as failed
+    with how it died, and the run goes on with the others. `in_worker`: this is a worker
+    process of the run's pool, which must die with the run's driver."""
+    if in_worker:
+        die_with_parent()
+    start = time.time()
+    result = isolated(run_trial, spec, inputs, tensorboard, snapshots)
+    if not isinstance(result, Died):
+        return result
+    return TrialResult(
+        spec=spec,
+        status="failed",
+        returns=[],
+        curve=[],
+        env_steps=0,
+        wall_time=round(time.time() - start, 3),
+        versions=versions(),
+        traceback=f"TrialDied: {result}",
     )

@@ -105,6 +105,44 @@ FLAKY = (
 )
 
 
+DYING = (
+    "import os, signal, sys\nfrom dataclasses import dataclass\n"
+    "import numpy as np\nfrom bench.registry import register\n\n"
+    "@dataclass\nclass C:\n    pass\n\n"
+    "@register('dying', config=C, inputs='none')\n"
+    "def train(task, demos, budget, seed, logger, config):\n"
+    "    if seed == 0:\n        os._exit(3)\n"
+    "    if seed == 1:\n        os.kill(os.getpid(), signal.SIGSEGV)\n"
+    "    if seed == 2:\n        sys.exit(4)\n"
+    "    return lambda obs: np.zeros((len(obs), task.act_dim))\n"
+)
+
+
+@pytest.mark.parametrize("jobs", ["1", "2"])
+def test_a_trial_whose_process_dies_is_that_trials_failure(tmp_path, cli, install_plugin, jobs):
+    """A learner that exits, or is killed by a signal, inside its trial fails that trial with how
+    it died; the run goes on with the rest and a rerun does not try it again."""
+    env = install_plugin(tmp_path / "site", "dying", "dying = dying_ifo", {"dying_ifo": DYING})
+    suite = write_suite(
+        tmp_path,
+        "dying",
+        f"envs: {{{PENDULUM}: {{budget: 1000}}}}\ndemos: [1]\nalgorithms: [random, dying]\n"
+        "seeds: 4\neval_episodes: 1\n",
+    )
+    results = tmp_path / "res"
+    run = ("run", str(suite), "--results", str(results), "--jobs", jobs)
+    out = cli(*run, env=env)
+    assert out.returncode == 1, out.stderr
+    assert "5 trials done, 3 failed" in out.stdout
+    records = {r.spec.seed: r for r in store.scan(results) if r.spec.algorithm == "dying"}
+    assert records[3].status == "ok"
+    assert "exited with status 3" in records[0].traceback
+    assert "killed by signal 11 (SIGSEGV)" in records[1].traceback
+    assert "exited with status 4" in records[2].traceback
+    again = cli(*run, env=env)
+    assert "0 trials done, 0 failed, 8 already finished" in again.stdout
+
+
 def test_failing_trial_is_recorded_and_retried(tmp_path, cli, install_plugin):
     env = install_plugin(tmp_path / "site", "flaky", "flaky = flaky_ifo", {"flaky_ifo": FLAKY})
     suite = write_suite(
