@@ -71,10 +71,11 @@ def test_a_killed_then_paused_trial_resumes_and_ends_as_if_never_stopped(
         f"algorithms: {algorithms}\nseeds: 1\neval_episodes: 2\n"
     )
     specs = expand(load_suite(suite))
-    whole = tmp_path / "whole"
+    # Under parents of their own: a run links what a folder beside it has finished.
+    whole = tmp_path / "a" / "whole"
     assert run_suite(specs, whole, jobs=2, progress=False, snapshot_every=None).failed == 0
 
-    cut = tmp_path / "cut"
+    cut = tmp_path / "b" / "cut"
     run = [sys.executable, "-m", "bench.cli", "run", str(suite), "--results", str(cut)]
     proc = subprocess.Popen(
         [*run, "--jobs", "2", "--snapshot-every", "0.2s"],
