@@ -278,7 +278,10 @@ def test_a_record_of_another_budget_is_refused_not_averaged_in(
     record = next((results / "trials").glob("*.json"))
     raw = json.loads(record.read_text())
     raw["spec"]["budget"] *= 10
-    (results / "trials" / "foreign.json").write_text(json.dumps(raw))
+    from bench.types import TrialSpec
+
+    foreign = TrialSpec(**raw["spec"]).trial_id  # named as a record of that trial would be
+    (results / "trials" / f"{foreign}.json").write_text(json.dumps(raw))
     for command in ("plot", "report"):
         out = bench_here(command, str(results))
         assert out.returncode == 2, out.stderr
