@@ -242,15 +242,15 @@ def test_a_plugin_control_is_drawn_and_reported_as_one_and_its_policy_is_kept(
         {"roles_ifo": PLUGIN_ROLES},
     )
     suite = tmp_path / "roles.yaml"
-    tiny = "{n_envs: 2, steps_per_env: 512}"
+    tiny = "{n_envs: 2, steps_per_env: 256}"
     suite.write_text(
-        f"envs: {{{PENDULUM}: {{budget: 2048}}}}\ndemos: [1]\nseeds: 2\neval_episodes: 2\n"
+        f"envs: {{{PENDULUM}: {{budget: 512}}}}\ndemos: [1]\nseeds: 2\neval_episodes: 2\n"
         f"algorithms: [random, expert, gaifo: {tiny}, standing: {tiny}, linear]\n"
     )
     results = tmp_path / "res"
     out = cli("run", str(suite), "--results", str(results), "--jobs", "1", env=env)
     assert out.returncode == 0, out.stderr
-    out = cli("report", str(results), env=env)
+    out = cli("report", str(results), "--reps", "50", env=env)
     assert out.returncode == 0, out.stderr
 
     trials = store.load(results)
