@@ -11,7 +11,7 @@ NAME := $(basename $(notdir $(SUITE)))
 RUN ?= runs/$(NAME)
 REFERENCE ?= results/$(NAME)
 
-.PHONY: install run test bench docs clean
+.PHONY: install run test test-fast bench docs clean
 
 $(BIN)/.installed: pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -34,6 +34,10 @@ test: install
 	$(BIN)/ruff format --check .
 	NO_MKDOCS_2_WARNING=1 $(BIN)/mkdocs build --strict --quiet --site-dir build/site
 	$(BIN)/python -m pytest -q -n 2
+
+# While developing: everything but the tests marked slow (real training, whole suites), ~2 min.
+test-fast: install
+	$(BIN)/python -m pytest -q -n 2 -m "not slow"
 
 docs: install
 	NO_MKDOCS_2_WARNING=1 $(BIN)/mkdocs serve

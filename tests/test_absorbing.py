@@ -79,6 +79,7 @@ def test_signed_reward_is_the_logit_and_odd():
     assert torch.allclose(signed, -signed.flip(0))  # D = 0.5 pays 0: no sign to exploit
 
 
+@pytest.mark.slow
 def test_discriminator_learns_that_falling_is_not_expert_like(tmp_path, monkeypatch, pendulum):
     """InvertedPendulum's expert never drops the pole; an untrained policy drops it every few
     dozen steps. Within a few updates D must judge the absorbing state as the policy's: the

@@ -41,6 +41,7 @@ def run_state_only(name: str, budget: int, monkeypatch, **hp):
     return result
 
 
+@pytest.mark.slow
 def test_bco_trains_through_the_runner_within_its_budget(cache, monkeypatch):
     # 2000 random steps, then chunks of 1000 policy steps; the last chunk is cut to 500.
     hp = dict(pre_demo_steps=2000, alpha=0.5, inverse_steps=300, bc_steps=200, n_envs=4)

@@ -97,6 +97,7 @@ def test_missing_suite_file(cli):
     )
 
 
+@pytest.mark.slow
 def test_plot_without_reference_trials_names_what_is_missing(tmp_path, cli):
     (tmp_path / "s.yaml").write_text("name: s\n" + GOOD.replace("[random, expert]", "[random]"))
     assert (
@@ -206,6 +207,7 @@ def test_unusable_arguments_are_one_line_before_any_work(
     assert snapshot(finished_results) == before and (tmp_path / "file").read_text() == "mine"
 
 
+@pytest.mark.slow
 def test_a_second_run_into_a_busy_folder_is_refused(tmp_path, cli):
     import subprocess
     import sys

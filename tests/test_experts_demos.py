@@ -160,6 +160,7 @@ def test_demos_without_flags_never_terminated():
         Demos("x", (episode,), (True, False))
 
 
+@pytest.mark.slow
 def test_killed_expert_training_resumes_from_its_checkpoint(tmp_path):
     """A training run killed midway resumes from its last checkpoint, not from step 0."""
     env_id, out = "InvertedPendulumBulletEnv-v0", tmp_path / "expert"

@@ -14,7 +14,7 @@ PENDULUM = "InvertedPendulumBulletEnv-v0"
 SEEDS = [0, 1, 2, 3]
 
 
-pytestmark = pytest.mark.usefixtures("demo_cache")
+pytestmark = [pytest.mark.usefixtures("demo_cache"), pytest.mark.slow]
 
 
 def run(tmp_path, body: str):

@@ -79,6 +79,7 @@ def test_rewards_come_from_the_current_discriminator(pendulum):
     assert {"disc_loss", "disc_acc_policy", "disc_acc_expert"} <= set(out.logged)
 
 
+@pytest.mark.slow
 def test_the_controls_are_matched_and_every_off_policy_learner_runs(tmp_path):
     algos = registry.all_algorithms()
     for name in ("survival-sac", "oracle-sac"):
@@ -114,6 +115,7 @@ def test_the_controls_are_matched_and_every_off_policy_learner_runs(tmp_path):
     assert evaluate(policy, envs, 2, EVAL_SEED) == records["gaifo-sac"].returns
 
 
+@pytest.mark.slow
 def test_opolo_rewards_come_from_the_current_discriminator_and_its_dual_term_lowers_q(pendulum):
     """OPOLO's reward is -log(1 - D) of D as it is now (D's training changes it), and the
     critic's dual term pushes Q down at the policy's actions: with alpha > 0, Q there ends

@@ -108,6 +108,7 @@ def tiny_suite(tmp_path, monkeypatch, observation: str) -> list:
 
 
 @pytest.mark.usefixtures("demo_cache")
+@pytest.mark.slow
 def test_a_tiny_pixel_suite_runs_end_to_end(tmp_path, monkeypatch):
     specs = tiny_suite(tmp_path, monkeypatch, "pixels, frame_size: 32")
     assert {trial.plan(s).pixels.shape for s in specs if s.algorithm != "expert"} == {(4, 32, 32)}
@@ -129,6 +130,7 @@ def test_a_tiny_pixel_suite_runs_end_to_end(tmp_path, monkeypatch):
 
 
 @pytest.mark.usefixtures("demo_cache")
+@pytest.mark.slow
 def test_dask_workers_learn_from_the_video_the_driver_ships(tmp_path, monkeypatch, on_dask):
     specs = [
         s
@@ -155,6 +157,7 @@ def test_the_pendulum_fills_the_frame():
 
 
 @pytest.mark.usefixtures("demo_cache")
+@pytest.mark.slow
 def test_a_video_reward_suite_acts_on_states_and_judges_frames(tmp_path, monkeypatch):
     specs = tiny_suite(tmp_path, monkeypatch, "video-reward")
     gaifo = next(s for s in specs if s.algorithm == "gaifo")

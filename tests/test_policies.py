@@ -11,7 +11,7 @@ from bench.trial import EVAL_SEED, plan
 
 PENDULUM = "InvertedPendulumBulletEnv-v0"
 
-pytestmark = pytest.mark.usefixtures("demo_cache")
+pytestmark = [pytest.mark.usefixtures("demo_cache"), pytest.mark.slow]
 
 
 @pytest.fixture(scope="module")

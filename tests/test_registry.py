@@ -47,6 +47,7 @@ def test_unknown_algorithm_and_hyperparameter_are_named():
 PLUGIN_PAGE = README.parent / "docs" / "guide" / "plugins.md"
 
 
+@pytest.mark.slow
 def test_the_plugin_page_installs_and_runs_as_written(tmp_path, cli):
     """The docs' plugin package, built from the page's own code blocks: pip installs it, bench
     lists it, and a suite trains it through the runner."""
@@ -117,6 +118,7 @@ def test_the_controls_run_the_imitators_trpo_settings(tmp_path):
         assert {k: settings[imitator][k] for k in trpo_fields} == settings["oracle"]
 
 
+@pytest.mark.slow
 def test_the_oracle_trains_on_the_envs_reward_where_survival_trains_on_one_per_step():
     """InvertedPendulum pays +1 per step alive, so there the two controls are the same learner
     and their records agree to the bit; Hopper pays for forward progress, so they part."""
@@ -131,6 +133,7 @@ def test_the_oracle_trains_on_the_envs_reward_where_survival_trains_on_one_per_s
     assert returns("oracle", "HopperBulletEnv-v0") != returns("survival", "HopperBulletEnv-v0")
 
 
+@pytest.mark.slow
 def test_a_broken_plugin_is_named_once_and_the_rest_works(tmp_path, cli, install_plugin):
     env = install_plugin(tmp_path, "broken", "broken-ifo = broken_ifo", {"broken_ifo": "1/0\n"})
     out = cli("list", env=env)
@@ -225,6 +228,7 @@ def linear(task, demos, budget, seed, logger, config):
 '''
 
 
+@pytest.mark.slow
 def test_a_plugin_control_is_drawn_and_reported_as_one_and_its_policy_is_kept(
     tmp_path, cli, install_plugin
 ):

@@ -139,6 +139,7 @@ def test_report_numbers(written, table_rows):
     )
 
 
+@pytest.mark.slow
 def test_per_env_statistics_keep_every_seed_an_env_has(tmp_path):
     """Hopper has two more GAIfO seeds than the pendulum: pooling drops them, its own column not."""
     results = write_suite(tmp_path / "synthetic", demos=[5])
@@ -308,6 +309,7 @@ def test_cli_writes_a_report_per_suite(two_suites, tmp_path, capsys, table_rows)
     )
 
 
+@pytest.mark.slow
 def test_python_m_bench_cli_report(two_suites):
     out = subprocess.run(
         [sys.executable, "-m", "bench.cli", "report", str(two_suites / "b")],
@@ -326,6 +328,7 @@ def test_cli_without_trials_is_one_line_exit_2(folder, tmp_path, capsys):
     assert err.count("\n") == 1 and err.startswith("bench: error: ") and str(tmp_path) in err
 
 
+@pytest.mark.slow
 def test_learners_are_read_as_fractions_of_their_matched_oracle(tmp_path):
     """An oracle at 0.8 and a variant at 0.5: GAIfO (0.7-0.85) reads against the plain one,
     gaifo-fast against oracle-fast; the oracles are not rivals in P(improvement)."""

@@ -32,6 +32,7 @@ def write_suite(folder: Path, name: str, body: str) -> Path:
 pytestmark = pytest.mark.usefixtures("demo_cache")
 
 
+@pytest.mark.slow
 def test_killed_run_resumes_without_losing_or_duplicating(tmp_path, cli):
     suite = write_suite(
         tmp_path,
@@ -75,6 +76,7 @@ def test_killed_run_resumes_without_losing_or_duplicating(tmp_path, cli):
     assert {name.removesuffix(".json") for name in after} == ids
 
 
+@pytest.mark.slow
 def test_dask_backend_matches_loky(tmp_path, on_dask):
     suite = write_suite(
         tmp_path,
@@ -119,6 +121,7 @@ DYING = (
 
 
 @pytest.mark.parametrize("jobs", ["1", "2"])
+@pytest.mark.slow
 def test_a_trial_whose_process_dies_is_that_trials_failure(tmp_path, cli, install_plugin, jobs):
     """A learner that exits, or is killed by a signal, inside its trial fails that trial with how
     it died; the run goes on with the rest and a rerun does not try it again."""
@@ -143,6 +146,7 @@ def test_a_trial_whose_process_dies_is_that_trials_failure(tmp_path, cli, instal
     assert "0 trials done, 0 failed, 8 already finished" in again.stdout
 
 
+@pytest.mark.slow
 def test_failing_trial_is_recorded_and_retried(tmp_path, cli, install_plugin):
     env = install_plugin(tmp_path / "site", "flaky", "flaky = flaky_ifo", {"flaky_ifo": FLAKY})
     suite = write_suite(
@@ -261,6 +265,7 @@ def test_once_none_fits_a_time_limit_starts_trials_that_can_pause_while_worth_it
     assert [job[1][0] for job in _jobs([dear, cheap], costs, limit=limit)] == [cheap]
 
 
+@pytest.mark.slow
 def test_time_limit_leaves_the_trials_that_would_not_fit(tmp_path, cli):
     # Prices come from the records beside the results folder: here, records that say a
     # survival trial takes an hour per 2,048 steps and a random one two seconds.
@@ -296,6 +301,7 @@ def test_time_left_is_the_expected_seconds_over_the_workers():
     assert costs.time_left(todo, workers=2) == "~45 min +1 unpriced"
 
 
+@pytest.mark.slow
 def test_two_variants_of_one_algorithm_run_and_plot_side_by_side(tmp_path, cli):
     suite = write_suite(
         tmp_path,
@@ -357,6 +363,7 @@ def test_a_state_trials_estimate_never_goes_by_a_pixel_trials_cost():
     assert row.seconds == pytest.approx(500.0) and "B (pixels)" in row.basis
 
 
+@pytest.mark.slow
 def test_two_suites_that_ask_for_the_same_trial_share_one_record(tmp_path):
     """A trial is identified by what decides it, not by its suite or label: a labelled variant
     in a screen and the plain entry of a suite whose env sets the same settings are one trial,
@@ -392,6 +399,7 @@ def test_two_suites_that_ask_for_the_same_trial_share_one_record(tmp_path):
     assert (again.done, again.linked, again.skipped) == (0, 0, 6)  # linked once, found after
 
 
+@pytest.mark.slow
 def test_a_run_links_what_another_suite_finished_and_runs_the_rest(tmp_path, cli, install_plugin):
     env = install_plugin(tmp_path / "site", "flaky", "flaky = flaky_ifo", {"flaky_ifo": FLAKY})
     body = f"envs: {{{PENDULUM}: {{budget: 1000}}}}\ndemos: [1]\nalgorithms: [random, flaky]\n"

@@ -61,6 +61,7 @@ LEARNERS = {
 
 
 @pytest.mark.parametrize("optimizer", sorted(LEARNERS))
+@pytest.mark.slow
 def test_a_killed_then_paused_trial_resumes_and_ends_as_if_never_stopped(
     optimizer, tmp_path, bench_here
 ):

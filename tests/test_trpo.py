@@ -1,4 +1,5 @@
 import numpy as np
+import pytest
 import torch
 
 from bench import envs
@@ -82,6 +83,7 @@ def test_custom_reward_replaces_env_reward(pendulum):
     assert seen == [(512, 2, 5), (512, 2, 5)]
 
 
+@pytest.mark.slow
 def test_trpo_solves_inverted_pendulum_within_100k_steps(pendulum):
     steps = []
     learner = train(
