@@ -66,9 +66,6 @@ class Names(Mapping[str, Shown]):
     def __len__(self) -> int:
         return len(self._shown)
 
-    def __or__(self, other: Names) -> Names:
-        return Names({**other._shown, **self._shown})
-
     def label(self, name: str) -> str:
         """Display name; a * marks an algorithm that was given expert actions."""
         shown = self[name]
