@@ -27,8 +27,8 @@ import torch
 from torch import nn
 
 from bench.registry import Logger, Policy, Task, register, snapshots_of
-from bench.rl import stateful
 from bench.rl.networks import DeterministicPolicy, GaussianPolicy, RunningNorm, mlp
+from bench.rl.resume import TORCH_RNG, Resumable
 from bench.rl.rollout import VecCollector
 from bench.types import Demos
 from bench.validate import above, at_least
@@ -211,42 +211,36 @@ def train(
 
         return sample
 
-    inverse_parts = {"model": model, "opt": model_opt, "gen": gen}
-
-    def snapshot() -> dict:
-        """All that carries from one iteration to the next; the policy does not (each
-        iteration clones a fresh one). M's data go as one chunk: it is only ever stacked."""
-        return {
-            "steps": steps,
-            "iteration": iteration,
-            "inverse": stateful.state_of(inverse_parts),
-            "data": [list(stacked(parts)) for parts in (train_data, val_data)],
-            "rollouts": rollouts.state_dict(),
-            "rng": rng.bit_generator.state,
-            "torch_rng": torch.get_rng_state(),
-        }
-
     chunk = round(cfg.alpha * cfg.pre_demo_steps)
     rollouts = VecCollector(
         [task.make_env(seed * 1000 + i) for i in range(cfg.n_envs)], seed * 1000
     )
-    snapshots = snapshots_of(logger)
-    resumed = snapshots.load() if snapshots is not None else None
+    # All that carries from one iteration to the next; the policy does not (each iteration
+    # clones a fresh one).
+    resume = Resumable(
+        snapshots_of(logger),
+        parts={
+            "inverse": {"model": model, "opt": model_opt, "gen": gen},
+            "rng": rng,
+            "torch_rng": TORCH_RNG,
+        },
+        replayed={"rollouts": rollouts},
+    )
+
+    def counters() -> dict:
+        """The loop's counters, and M's data as one chunk: it is only ever stacked."""
+        data = [list(stacked(parts)) for parts in (train_data, val_data)]
+        return {"steps": steps, "iteration": iteration, "data": data}
+
     try:
-        if resumed is None:
+        if (resumed := resume.restore()) is None:
             steps, iteration = collect(uniform, cfg.pre_demo_steps), 0  # pre-demonstration phase
         else:
             steps, iteration = resumed["steps"], resumed["iteration"]
-            stateful.load_into(inverse_parts, resumed["inverse"])
             for kept, saved in zip((train_data, val_data), resumed["data"], strict=True):
                 kept.append(tuple(x.numpy() for x in saved))
-            with snapshots.replaying():
-                rollouts.load_state_dict(resumed["rollouts"])
-            rng.bit_generator.state = resumed["rng"]
-            torch.set_rng_state(resumed["torch_rng"])
         while True:
-            if snapshots is not None and snapshots.due():
-                snapshots.save(snapshot())
+            resume.save_if_due(counters)
             fit_steps = cfg.inverse_steps if iteration == 0 else cfg.inverse_refit_steps
             inverse_loss = fit_inverse(
                 model, model_opt, stacked(train_data), fit_steps, cfg.minibatch, gen

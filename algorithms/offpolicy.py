@@ -30,7 +30,7 @@ from algorithms.adversarial import (
 from algorithms.gaifo import state_transition
 from algorithms.gail import state_action
 from bench.registry import Logger, Policy, Task, register, snapshots_of
-from bench.rl import sac, stateful
+from bench.rl import resume, sac
 from bench.rl.absorbing import Transitions
 from bench.rl.networks import RunningNorm
 from bench.types import ActionDemos, Demos
@@ -98,7 +98,7 @@ def uniform(shape: tuple[int, ...], gen: torch.Generator, device: torch.device) 
     return torch.rand(shape, generator=gen).to(device)
 
 
-class CurrentDReward(stateful.Stateful):
+class CurrentDReward(resume.Stateful):
     """The critic's reward hook: for each replay minibatch, one Adam step of D on it against
     as many expert transitions, then D's reward for that minibatch from D as it is after the
     step, with D's diagnostics to log."""

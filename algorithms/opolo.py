@@ -45,7 +45,7 @@ from algorithms.offpolicy import (
     uniform,
 )
 from bench.registry import Logger, Policy, Task, register
-from bench.rl import sac, stateful
+from bench.rl import resume, sac
 from bench.rl.networks import RunningNorm, mlp
 from bench.types import Demos
 from bench.validate import at_least
@@ -125,7 +125,7 @@ class InverseModel(nn.Module):
         return self.net(normalized_pair(self.norm, batch))
 
 
-class OPOLO(stateful.Stateful):
+class OPOLO(resume.Stateful):
     """TD3 on D's reward with the dual term and the inverse-model regularizer; the loop is
     SAC's (`bench.rl.sac.train`), which calls `explore` and `update`."""
 
@@ -163,7 +163,7 @@ class OPOLO(stateful.Stateful):
         self.stats: dict[str, float] = {}
 
     def parts(self) -> dict[str, Any]:
-        """Everything that changes as it learns (`bench.rl.stateful`), but for counters."""
+        """Everything that changes as it learns (`bench.rl.resume`), but for counters."""
         networks = ("actor", "critic", "actor_target", "critic_target", "disc", "inverse")
         optimizers = ("actor_opt", "critic_opt", "disc_opt", "inverse_opt")
         return {name: getattr(self, name) for name in (*networks, *optimizers, "buffer", "gen")}

@@ -28,4 +28,4 @@ def train(
     task: Task, demos: None, budget: int, seed: int, logger: Logger, config: ImitationTRPOConfig
 ) -> Policy:
     # reward_fn=None: the env's reward, what the expert was trained on
-    return trpo_on_reward(task, budget, seed, logger, config, reward_fn=None, reward_state={})
+    return trpo_on_reward(task, budget, seed, logger, config, reward_fn=None)

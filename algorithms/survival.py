@@ -26,4 +26,4 @@ def train(
     task: Task, demos: None, budget: int, seed: int, logger: Logger, config: ImitationTRPOConfig
 ) -> Policy:
     reward = lambda b: np.ones_like(b.rewards)  # noqa: E731
-    return trpo_on_reward(task, budget, seed, logger, config, reward, reward_state={})
+    return trpo_on_reward(task, budget, seed, logger, config, reward)

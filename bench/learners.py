@@ -6,9 +6,7 @@ on a reward of the algorithm's own (from states or frames alike)."""
 from __future__ import annotations
 
 import copy
-from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import Any
 
 import torch
 
@@ -117,19 +115,15 @@ def trpo_on_reward(
     logger: Logger,
     config: ImitationTRPOConfig,
     reward_fn: RewardFn | None,
-    reward_state: Mapping[str, Any] | None = None,
 ) -> DeterministicPolicy:
     """The imitators' TRPO, with their settings and their averaged policy, on `reward_fn` (None:
     the env's own reward, as the `oracle` control): what a learner with a reward of its own
-    needs, and what the controls run.
-
-    `reward_state`: what changes in the reward as it trains (its modules, optimizers and
-    generators, by name; {} for a reward that never changes), so the trial can be snapshotted
-    and resumed (`bench.snapshots`). None, the default: the reward's state is not known, and
-    the trial takes no snapshots."""
+    needs, and what the controls run. Resumable as every built-in loop is: a reward that learns
+    as it goes is an object with `state_dict` and `load_state_dict` (`bench.rl.resume.Stateful`),
+    saved with the learner; a plain function is taken to be fixed."""
     learner = make_trpo(task.obs_shape, task.act_dim, config, seed)
     average = PolicyAverage(config.policy_average, like=learner.policy)
-    resumable = reward_state is not None
+    learns = hasattr(reward_fn, "state_dict")
     train(
         task.make_env,
         budget,
@@ -137,7 +131,7 @@ def trpo_on_reward(
         reward_fn=reward_fn,
         callback=report_each_update(task, logger, average=average),
         learner=learner,
-        snapshots=snapshots_of(logger) if resumable else None,
-        keep={**(reward_state or {}), "average": average},
+        snapshots=snapshots_of(logger),
+        keep={"reward": reward_fn, "average": average} if learns else {"average": average},
     )
     return average.policy(learner, task)

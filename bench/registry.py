@@ -39,7 +39,6 @@ import dataclasses
 import importlib.metadata
 import warnings
 from collections.abc import Callable
-from contextlib import AbstractContextManager
 from dataclasses import dataclass
 from typing import Any, Literal, Protocol
 
@@ -49,6 +48,7 @@ import numpy as np
 from bench import validate
 from bench.errors import BadInput
 from bench.pixels import PixelConfig
+from bench.rl.resume import Snapshots
 
 Inputs = Literal["none", "states", "actions", "expert"]
 Role = Literal["learner", "floor", "ceiling", "random", "expert"]
@@ -115,32 +115,9 @@ class Logger(Protocol):
         """Record diagnostics (e.g. discriminator accuracy) at `env_steps`."""
 
 
-class Snapshots(Protocol):
-    """What a long trial may use to survive an interruption: the runner's logger offers it as
-    `logger.snapshots` (`snapshots_of`). An algorithm that opts in saves its whole state when
-    one is due and, when its trial is resumed, loads it back before it trains on; the runner
-    keeps the trial's env-step count, learning curve and logs along with it."""
-
-    def due(self) -> bool:
-        """Whether a snapshot should be saved now (every ~10 min of training)."""
-
-    def save(self, state: dict[str, Any]) -> None:
-        """Keep `state` (tensors, numbers, strings, and lists and dicts of them) to resume from.
-        Past the run's time limit (`bench run --time-limit`), `due` is always true and `save`
-        then ends the trial by raising `TrialPaused`: let it through, and the next run resumes
-        the trial from this snapshot."""
-
-    def load(self) -> dict[str, Any] | None:
-        """The state last saved, where this trial resumes after an interruption; else None.
-        The trial's env-step count is set back to what it was at that save."""
-
-    def replaying(self) -> AbstractContextManager[None]:
-        """Env steps taken inside do not count against the budget: an env being brought back to
-        where it was when the snapshot was saved (`bench.rl.episodes.Episode`) gains no experience."""
-
-
 def snapshots_of(logger: Logger) -> Snapshots | None:
-    """The logger's `snapshots`, or None where it has none (loggers outside the runner)."""
+    """Where the runner keeps this trial's snapshots, for `bench.rl.resume.Resumable`; None
+    where it keeps none (loggers outside the runner)."""
     return getattr(logger, "snapshots", None)
 
 

@@ -82,7 +82,7 @@ class TrialLogger:
     events: Any = None
     """A TensorBoard SummaryWriter that gets every scalar as it is logged (None: records only)."""
     snapshots: TrialSnapshots | None = None
-    """The trial's `registry.Snapshots`, where the runner keeps them (None: it does not)."""
+    """The trial's `bench.rl.resume.Snapshots`, where the runner keeps them (None: it does not)."""
 
     def checkpoint(self, env_steps: int, policy: registry.Policy) -> None:
         if env_steps >= self._next:
@@ -102,7 +102,7 @@ class TrialLogger:
 
 @dataclass
 class TrialSnapshots:
-    """The runner's side of `registry.Snapshots` for one trial: the algorithm's state saved
+    """The runner's side of `bench.rl.resume.Snapshots` for one trial: the algorithm's state saved
     with the trial's own (env steps, learning curve, logs, time spent), so a resumed trial's
     record reads as if it had run in one go, but for `resumed_at`."""
 

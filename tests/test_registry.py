@@ -194,7 +194,7 @@ from bench.registry import register
 def standing(task, demos, budget, seed, logger, config):
     """A floor of its own: TRPO paid 2 per step alive."""
     reward = lambda b: 2 * np.ones_like(b.rewards)
-    return trpo_on_reward(task, budget, seed, logger, config, reward, reward_state={})
+    return trpo_on_reward(task, budget, seed, logger, config, reward)
 
 
 class MeanAction:

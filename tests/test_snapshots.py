@@ -138,3 +138,93 @@ def test_a_cut_off_trial_is_priced_at_what_its_snapshot_leaves(tmp_path):
     assert plan.read(todo[0].trial_id) == {"anything": 1}
     plan.discard(todo[0].trial_id)
     assert plan.read(todo[0].trial_id) is None and plan.done_fraction(todo[0].trial_id) == 0.0
+
+
+PLUGIN_LOOP = '''
+from dataclasses import dataclass
+
+import numpy as np
+import torch
+
+from bench.registry import register, snapshots_of
+from bench.rl.resume import Resumable
+from bench.rl.rollout import VecCollector
+
+
+@dataclass
+class SearchConfig:
+    step: float = 0.1
+    """Std of each random perturbation of the weights."""
+
+
+class Linear:
+    def __init__(self, weights):
+        self.weights = weights
+
+    def __call__(self, obs):
+        return np.tanh(obs @ self.weights.numpy()).astype(np.float32)
+
+
+@register("search", config=SearchConfig, inputs="none", resumable=True, family="trpo")
+def search(task, demos, budget, seed, logger, config):
+    """Random search on the env's reward, in a loop of the plugin's own."""
+    rng = np.random.default_rng(seed)
+    best = torch.zeros(task.obs_dim, task.act_dim)
+    envs = VecCollector([task.make_env(seed * 1000 + i) for i in range(2)], seed * 1000)
+    resume = Resumable(snapshots_of(logger), {"best": best, "rng": rng}, {"envs": envs})
+    resumed = resume.restore()
+    steps, score = (resumed["steps"], resumed["score"]) if resumed else (0, -np.inf)
+    while steps + 100 <= budget:
+        trial = best + torch.from_numpy(rng.normal(0, config.step, best.shape)).float()
+        batch = envs.run(Linear(trial), 50)
+        steps += batch.n_steps
+        if batch.rewards.mean() > score:
+            best.copy_(trial)
+            score = float(batch.rewards.mean())
+        logger.log(steps, score=score)
+        logger.checkpoint(steps, Linear(best.clone()))
+        resume.save_if_due(lambda: {"steps": steps, "score": score})
+    return Linear(best.clone())
+'''
+
+
+@pytest.mark.slow
+def test_a_plugin_loop_resumes_through_the_wrapper(tmp_path, cli, install_plugin):
+    """A loop of a plugin's own names its parts to `Resumable`, and a trial of it killed
+    mid-run resumes and ends where a run in one go ends."""
+    env = install_plugin(
+        tmp_path / "plugin",
+        "search-plugin",
+        "search = search_plugin",
+        {"search_plugin": PLUGIN_LOOP},
+    )
+    env["IFO_BENCH_CACHE"] = str(tmp_path / "cache")
+    suite = tmp_path / "s.yaml"
+    suite.write_text(
+        f"name: loop\nenvs: {{{PENDULUM}: {{budget: 30000}}}}\ndemos: [1]\nalgorithms: [search]\n"
+        "seeds: 1\neval_episodes: 2\n"
+    )
+    whole, cut = tmp_path / "a" / "whole", tmp_path / "b" / "cut"
+    out = cli("run", str(suite), "--results", str(whole), env=env)
+    assert out.returncode == 0, out.stderr
+    run = [sys.executable, "-m", "bench.cli", "run", str(suite), "--results", str(cut)]
+    proc = subprocess.Popen(
+        [*run, "--snapshot-every", "0.2s"],
+        env=env,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+        start_new_session=True,
+    )
+    deadline = time.time() + 120
+    while not learning(cut / FOLDER) and time.time() < deadline:
+        time.sleep(0.05)
+    time.sleep(0.3)
+    os.killpg(proc.pid, signal.SIGKILL)
+    proc.wait()
+    assert not list((cut / "trials").glob("*.json")), "the kill should land mid-trial"
+    out = cli("run", str(suite), "--results", str(cut), env=env)
+    assert out.returncode == 0, out.stderr
+    (one_go,), (again,) = store.scan(whole), store.scan(cut)
+    assert again.resumed_at and 300 < again.resumed_at[0] < 30000
+    assert (again.returns, again.curve) == (one_go.returns, one_go.curve)
+    assert untimed(again.logs) == untimed(one_go.logs)

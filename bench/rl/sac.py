@@ -31,10 +31,9 @@ import torch
 import torch.nn.functional as F
 from torch import nn
 
-from bench.registry import Snapshots
-from bench.rl import stateful
 from bench.rl.absorbing import FLAG
 from bench.rl.networks import mlp
+from bench.rl.resume import TORCH_RNG, Resumable, Snapshots, Stateful
 from bench.rl.rollout import VecCollector
 
 
@@ -289,7 +288,7 @@ SACRewardFn = Callable[[ReplayBatch], "torch.Tensor | Logged"]
 `Logged` rewards."""
 
 
-class SAC(stateful.Stateful):
+class SAC(Stateful):
     def __init__(self, obs_dim: int, act_dim: int, low, high, cfg: SACConfig, seed: int) -> None:
         torch.manual_seed(seed)  # built on the CPU and then moved: the same weights anywhere
         self.cfg, self.act_dim, self.device = cfg, act_dim, usable_device(cfg.device)
@@ -311,7 +310,7 @@ class SAC(stateful.Stateful):
         self.buffer = ReplayBuffer(obs_dim, act_dim, cfg.buffer_size, seed)
 
     def parts(self) -> dict[str, Any]:
-        """Everything that changes as it learns (`bench.rl.stateful`)."""
+        """Everything that changes as it learns (`bench.rl.resume`)."""
         names = ("actor", "critic", "target", "log_alpha", "buffer")
         optimizers = ("actor_opt", "critic_opt", "alpha_opt")
         return {name: getattr(self, name) for name in (*names, *optimizers)}
@@ -447,28 +446,20 @@ def train(
         with torch.no_grad():
             return learner.explore(torch.from_numpy(flagged(obs)).to(learner.device)).cpu().numpy()
 
-    def snapshot() -> dict[str, Any]:
-        loop = {"steps": steps, "owed": owed, "info": info, "next_report": next_report}
-        return {
-            "learner": learner.state_dict(),
-            **stateful.state_of(extra),
-            "loop": {**loop, "clock": clock},
-            "rng": rng.bit_generator.state,
-            "torch_rng": torch.get_rng_state(),
-            "collector": collector.state_dict(),
-        }
-
-    resumed = snapshots.load() if snapshots is not None else None
-    if resumed is not None:
-        learner.load_state_dict(resumed["learner"])
-        stateful.load_into(extra, resumed)
+    resume = Resumable(
+        snapshots,
+        parts={"learner": learner, **extra, "rng": rng, "torch_rng": TORCH_RNG},
+        replayed={"collector": collector},
+    )
+    if (resumed := resume.restore()) is not None:
         loop = resumed["loop"]
         steps, owed, info = loop["steps"], loop["owed"], loop["info"]
         next_report, clock = loop["next_report"], loop["clock"]
-        rng.bit_generator.state = resumed["rng"]
-        torch.set_rng_state(resumed["torch_rng"])
-        with snapshots.replaying():
-            collector.load_state_dict(resumed["collector"])
+
+    def counters() -> dict[str, Any]:
+        loop = {"steps": steps, "owed": owed, "info": info, "next_report": next_report}
+        return {"loop": {**loop, "clock": clock}}
+
     try:
         while steps + n_envs <= budget:
             t0 = time.perf_counter()
@@ -499,8 +490,7 @@ def train(
             if callback is not None and steps >= next_report:
                 callback(steps, learner, {**info, **clock})
                 next_report += report_every
-            if snapshots is not None and snapshots.due() and steps + n_envs <= budget:
-                snapshots.save(snapshot())
+            resume.save_if_due(counters, room=steps + n_envs <= budget)
     finally:
         collector.close()
     return learner

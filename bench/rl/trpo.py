@@ -18,9 +18,8 @@ import gymnasium as gym
 import numpy as np
 import torch
 
-from bench.registry import Snapshots
-from bench.rl import stateful
 from bench.rl.networks import ConvTrunk, GaussianPolicy, ObsShape, RunningNorm, ValueNet
+from bench.rl.resume import TORCH_RNG, Resumable, Snapshots
 from bench.rl.rollout import Batch, RewardFn, Rewards, VecCollector
 from bench.validate import above, at_least
 
@@ -352,7 +351,7 @@ def train(
     With `snapshots`, it saves everything when one is due and, where the trial resumes, starts
     from the last one: the learner, the envs (each episode replayed), the random states, and
     `keep`: what else learns along (a discriminator, its optimizer and generator, a policy
-    average), as `bench.rl.stateful` saves them. On the same machine it returns the very
+    average), as `bench.rl.resume` saves them. On the same machine it returns the very
     learner a run in one go returns, provided `keep` holds all that changes besides.
     """
     cfg = learner.cfg if learner is not None else cfg or TRPOConfig()
@@ -366,16 +365,17 @@ def train(
     act_dim = int(np.prod(envs[0].action_space.shape))
     learner = learner or TRPO(obs_dim, act_dim, cfg, seed)
     collector = VecCollector(envs, seed * 1000)
-    keep = keep or {}
-    steps = 0
-    resumed = snapshots.load() if snapshots is not None else None
-    if resumed is not None:
-        learner.load_state_dict(resumed["learner"])
-        stateful.load_into(keep, resumed["keep"])
-        with snapshots.replaying():
-            collector.load_state_dict(resumed["collector"])
-        steps = resumed["steps"]
-        torch.set_rng_state(resumed["torch_rng"])
+    resume = Resumable(
+        snapshots,
+        parts={"learner": learner, "keep": keep or {}, "torch_rng": TORCH_RNG},
+        replayed={"collector": collector},
+    )
+    resumed = resume.restore()
+    steps = resumed["steps"] if resumed is not None else 0
+
+    def counters() -> dict[str, int]:
+        return {"steps": steps}
+
     try:
         while steps + cfg.batch_size <= budget:
             t0 = time.perf_counter()
@@ -388,16 +388,7 @@ def train(
             info.update(collect_s=t1 - t0, update_s=time.perf_counter() - t1)
             if callback is not None:
                 callback(steps, learner, batch, info)
-            if snapshots is not None and snapshots.due() and steps + cfg.batch_size <= budget:
-                snapshots.save(
-                    {
-                        "learner": learner.state_dict(),
-                        "keep": stateful.state_of(keep),
-                        "collector": collector.state_dict(),
-                        "steps": steps,
-                        "torch_rng": torch.get_rng_state(),
-                    }
-                )
+            resume.save_if_due(counters, room=steps + cfg.batch_size <= budget)
     finally:
         collector.close()
     return learner
