@@ -24,13 +24,13 @@ from dataclasses import dataclass
 
 import numpy as np
 import torch
-from torch import nn
 
-from bench.registry import Logger, Policy, Task, register, snapshots_of
-from bench.rl.networks import DeterministicPolicy, GaussianPolicy, RunningNorm, mlp
+from bench.harness.registry import Logger, Policy, Task, register, snapshots_of
+from bench.imitation.data import Demos
+from bench.imitation.inverse_dynamics import InverseModel, fit_inverse, inverse_error
+from bench.rl.networks import DeterministicPolicy, GaussianPolicy
 from bench.rl.resume import TORCH_RNG, Resumable
 from bench.rl.rollout import VecCollector
-from bench.types import Demos
 from bench.validate import above, at_least
 
 
@@ -76,60 +76,6 @@ class BCOConfig:
         at_least(self, 1, "inverse_steps", "inverse_refit_steps", "bc_steps", "minibatch")
         at_least(self, 0, "max_iterations")
         above(self, 0, "inverse_lr", "bc_lr")
-
-
-class InverseModel(nn.Module):
-    """Predicts the action taken between raw s and s': (B, O), (B, O) -> (B, A).
-
-    Inputs are s and the change s' - s, each with its own running normalizer: the change is
-    what the action explains, and it is orders of magnitude smaller than s.
-    """
-
-    def __init__(self, obs_dim: int, act_dim: int, hidden: tuple[int, ...]) -> None:
-        super().__init__()
-        self.s_norm, self.d_norm = RunningNorm(obs_dim), RunningNorm(obs_dim)
-        self.net = mlp([2 * obs_dim, *hidden, act_dim], nn.ReLU)
-
-    def update_norms(self, s: np.ndarray, s_next: np.ndarray) -> None:
-        self.s_norm.update(s)
-        self.d_norm.update(s_next - s)
-
-    def forward(self, s: torch.Tensor, s_next: torch.Tensor) -> torch.Tensor:
-        return self.net(torch.cat([self.s_norm(s), self.d_norm(s_next - s)], dim=1))
-
-
-def fit_inverse(
-    model: InverseModel,
-    opt: torch.optim.Optimizer,
-    data: tuple[torch.Tensor, torch.Tensor, torch.Tensor],
-    steps: int,
-    minibatch: int,
-    gen: torch.Generator,
-) -> float:
-    """`steps` Adam steps of MSE on minibatches of (s, a, s'); returns the last loss."""
-    s, a, s_next = data
-    loss = torch.zeros(())
-    for _ in range(steps):
-        idx = torch.randint(len(s), (minibatch,), generator=gen)
-        loss = (model(s[idx], s_next[idx]) - a[idx]).square().mean()
-        opt.zero_grad()
-        loss.backward()
-        opt.step()
-    return loss.item()
-
-
-@torch.no_grad()
-def inverse_error(
-    model: InverseModel, data: tuple[torch.Tensor, torch.Tensor, torch.Tensor]
-) -> dict[str, float]:
-    """Held-out MSE, and R^2 = 1 - MSE / Var(a) over all action dimensions."""
-    s, a, s_next = data
-    mse = (model(s, s_next) - a).square().mean(0)
-    return {
-        "inverse_val_mse": mse.mean().item(),
-        "inverse_val_r2": 1.0
-        - (mse.sum() / a.var(0, unbiased=False).sum().clamp_min(1e-12)).item(),
-    }
 
 
 def clone(

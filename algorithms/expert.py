@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from bench.registry import Logger, Policy, Task, register
+from bench.harness.registry import Logger, Policy, Task, register
 
 
 @dataclass

@@ -5,9 +5,9 @@ from __future__ import annotations
 import torch
 
 from algorithms.adversarial import AdversarialConfig, train_adversarial
-from bench.learners import one_batch
-from bench.registry import Logger, Policy, Task, register
-from bench.types import ActionDemos
+from bench.harness.learners import one_batch
+from bench.harness.registry import Logger, Policy, Task, register
+from bench.imitation.data import ActionDemos
 
 
 def state_action(s: torch.Tensor, a: torch.Tensor, s_next: torch.Tensor) -> torch.Tensor:

@@ -19,7 +19,11 @@ from typing import Any
 import numpy as np
 import torch
 
-from algorithms.adversarial import (
+from algorithms.gaifo import state_transition
+from algorithms.gail import state_action
+from bench.harness.registry import Logger, Policy, Task, register, snapshots_of
+from bench.imitation.data import ActionDemos, Demos
+from bench.imitation.discriminator import (
     REWARDS,
     Discriminator,
     DiscriminatorConfig,
@@ -27,13 +31,9 @@ from algorithms.adversarial import (
     discriminator_log,
     discriminator_loss,
 )
-from algorithms.gaifo import state_transition
-from algorithms.gail import state_action
-from bench.registry import Logger, Policy, Task, register, snapshots_of
 from bench.rl import resume, sac
 from bench.rl.absorbing import Transitions
 from bench.rl.networks import RunningNorm
-from bench.types import ActionDemos, Demos
 
 
 @dataclass
@@ -46,7 +46,7 @@ class OffPolicyAdversarialConfig(OffPolicyConfig, DiscriminatorConfig):
     """The off-policy imitators' SAC settings plus D's (the on-policy learners' D)."""
 
     reward: str = "log D - log(1-D)"
-    """Reward as a function of D: see `algorithms.adversarial.AdversarialConfig.reward`."""
+    """Reward as a function of D: see `bench.imitation.discriminator.REWARDS`."""
 
     def __post_init__(self) -> None:
         super().__post_init__()

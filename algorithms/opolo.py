@@ -35,7 +35,6 @@ import torch
 import torch.nn.functional as F
 from torch import nn
 
-from algorithms.adversarial import DiscriminatorConfig, discriminator_log, discriminator_loss
 from algorithms.offpolicy import (
     OffPolicyConfig,
     expert_replay,
@@ -44,10 +43,15 @@ from algorithms.offpolicy import (
     train_on_reward,
     uniform,
 )
-from bench.registry import Logger, Policy, Task, register
+from bench.harness.registry import Logger, Policy, Task, register
+from bench.imitation.data import Demos
+from bench.imitation.discriminator import (
+    DiscriminatorConfig,
+    discriminator_log,
+    discriminator_loss,
+)
 from bench.rl import resume, sac
 from bench.rl.networks import RunningNorm, mlp
-from bench.types import Demos
 from bench.validate import at_least
 
 

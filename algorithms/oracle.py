@@ -8,8 +8,8 @@ is the optimizer's at this budget."""
 
 from __future__ import annotations
 
-from bench.learners import ImitationTRPOConfig, one_batch, trpo_on_reward
-from bench.registry import Logger, Policy, Task, register
+from bench.harness.learners import ImitationTRPOConfig, one_batch, trpo_on_reward
+from bench.harness.registry import Logger, Policy, Task, register
 
 
 @register(

@@ -6,7 +6,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from bench.registry import Logger, Task, register
+from bench.harness.registry import Logger, Task, register
 
 
 @dataclass

@@ -6,8 +6,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from bench.learners import ImitationTRPOConfig, one_batch, trpo_on_reward
-from bench.registry import Logger, Policy, Task, register
+from bench.harness.learners import ImitationTRPOConfig, one_batch, trpo_on_reward
+from bench.harness.registry import Logger, Policy, Task, register
 
 
 @register(

@@ -4,7 +4,7 @@ Algorithm configs are still built as `config(**overrides)` (so trial ids and rec
 they were); `check_types` only checks first that every value has its field's type, strictly,
 as JSON would carry it: `true` is no int, "abc" is no tuple of ints, 1 is a float. Ranges are
 the dataclass's own (`__post_init__`, with `at_least` and `above`), so they live beside the
-field they bound. The suite file's own schema is `bench.suite.schema`.
+field they bound. The suite file's own schema is `bench.harness.suite.schema`.
 """
 
 from __future__ import annotations

@@ -21,8 +21,8 @@ from pathlib import Path
 
 import torch
 
-from bench.suite import expand, load_suite
-from bench.trial import plan, run_trial
+from bench.harness.suite import load_suite
+from bench.harness.trial import plan, run_trial
 
 SUITES = sorted((Path(__file__).parent / "identity").glob("*.yaml"))
 
@@ -70,7 +70,7 @@ def main(argv: list[str] | None = None) -> int:
     torch.set_num_threads(1)
     prints = {}
     for path in SUITES:
-        for spec in expand(load_suite(path)):
+        for spec in list(load_suite(path).trials):
             if args.only and args.only not in key(spec):
                 continue
             result = run_trial(spec, plan(spec).inputs())

@@ -14,7 +14,8 @@ import sys
 
 import pandas as pd
 
-from bench import labels, markdown, normalize, stats, store
+from bench.analysis import labels, markdown, normalize, stats
+from bench.harness import store
 
 
 def scores(folder: str, algorithm: str, n_demos: int) -> pd.DataFrame:

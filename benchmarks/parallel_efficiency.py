@@ -33,10 +33,10 @@ from pathlib import Path
 
 from joblib.externals.loky import get_reusable_executor
 
-from bench import store
-from bench.runner import run_suite
-from bench.suite import expand, load_suite, select
-from bench.types import TrialSpec
+from bench.harness import store
+from bench.harness.runner import run_suite
+from bench.harness.suite import load_suite, select
+from bench.harness.types import TrialSpec
 
 
 @dataclass(frozen=True)
@@ -79,7 +79,7 @@ def main() -> None:
     parser.add_argument("--jobs", type=int, default=2)
     parser.add_argument("--repeats", type=int, default=3)
     args = parser.parse_args()
-    specs = select(expand(load_suite(args.suite)), args.suite, args.env, args.algorithm)
+    specs = select(list(load_suite(args.suite).trials), args.suite, args.env, args.algorithm)
     specs = spread(specs, args.trials)
     print(f"{len(specs)} trials of {args.suite}, 1 job vs {args.jobs} jobs", flush=True)
 

@@ -7,7 +7,7 @@
     python benchmarks/throughput.py --library   # everything with pybullet's own stepping: the before
 
 Prints one row per env. `raw (library)` steps the env as pybullet_envs_gymnasium ships it,
-`raw` with `bench.bullet_speed` (what every trial runs; same trajectories). `trpo/raw` =
+`raw` with `bench.harness.bullet_speed` (what every trial runs; same trajectories). `trpo/raw` =
 TRPO training throughput (updates included) over raw stepping: the simulator is the limit,
 everything else is overhead. `gaifo/raw` likewise for GAIfO (discriminator updates and
 rewards included). GAIfO needs the env's expert (for one demonstration).
@@ -23,8 +23,8 @@ import time
 import numpy as np
 import torch
 
-from bench import envs
-from bench.pixels import PixelConfig
+from bench.harness import envs
+from bench.harness.pixels import PixelConfig
 from bench.rl.shared_trunk import make_trpo
 from bench.rl.trpo import TRPOConfig, train
 
@@ -65,8 +65,8 @@ def gaifo_steps_per_s(env_id: str, steps: int, pixels: PixelConfig | None = None
     """GAIfO from one demonstration, timed like `trpo_steps_per_s` (same TRPO settings)."""
     from algorithms import gaifo
     from algorithms.adversarial import AdversarialConfig
-    from bench import demos, paths
-    from bench.registry import Task
+    from bench.harness import demos, paths
+    from bench.harness.registry import Task
 
     if not paths.has_expert(env_id):
         return float("nan")
@@ -142,12 +142,12 @@ def main() -> None:
     parser.add_argument(
         "--library",
         action="store_true",
-        help="run everything with pybullet_envs_gymnasium's own stepping (bench.bullet_speed off)",
+        help="run everything with pybullet_envs_gymnasium's own stepping (bench.harness.bullet_speed off)",
     )
     args = parser.parse_args()
     pixels = PixelConfig(size=args.frame_size) if args.pixels else None
     torch.set_num_threads(1)
-    from bench import bullet_speed
+    from bench.harness import bullet_speed
 
     envs.make(args.envs[0], 0).close()  # registers the envs, and with them the patches
     header = ("env", "raw (library)", "raw", "TRPO", "GAIfO", "trpo/raw", "gaifo/raw")

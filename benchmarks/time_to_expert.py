@@ -21,10 +21,10 @@ import joblib
 import numpy as np
 import torch
 
-from bench import envs, experts
+from bench.harness import envs, experts
+from bench.harness.trial import StepTally, plan
+from bench.harness.types import TrialSpec
 from bench.rl.rollout import evaluate
-from bench.trial import StepTally, plan
-from bench.types import TrialSpec
 
 
 class Reached(Exception):

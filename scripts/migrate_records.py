@@ -8,7 +8,7 @@
   record from before records said them lacks them.
 - **One record per trial**: a copy of another suite's record (`copied_from`, from the old
   `bench run --reuse`), and a repeat of a trial another folder also ran with the very same
-  results, becomes a link to the one record (`bench.store.link`).
+  results, becomes a link to the one record (`bench.harness.store.link`).
 
     python scripts/migrate_records.py results            # prints what it changed
     python scripts/migrate_records.py results --dry-run  # prints what it would change
@@ -26,8 +26,9 @@ import sys
 from collections import defaultdict
 from pathlib import Path
 
-from bench import atomic, policies, registry, store
-from bench.types import CURVE_POINTS, TrialSpec
+from bench import atomic
+from bench.harness import policies, registry, store
+from bench.harness.types import CURVE_POINTS, TrialSpec
 
 OPTIONAL = ("label", "dataset", "observation", "frame_size")
 

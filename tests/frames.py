@@ -1,11 +1,11 @@
-"""Hand-built frames of records, as `bench.store.load` gives them."""
+"""Hand-built frames of records, as `bench.harness.store.load` gives them."""
 
 from __future__ import annotations
 
 import pandas as pd
 
-from bench import registry
-from bench.labels import Names
+from bench.analysis.labels import Names
+from bench.harness import registry
 
 
 def described(df: pd.DataFrame) -> pd.DataFrame:

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 import torch
 
-from algorithms.adversarial import REWARDS, expert_transitions
+from bench.imitation.discriminator import REWARDS, expert_transitions
 from bench.rl import absorbing
 from bench.rl.trpo import gae
 
@@ -84,9 +84,9 @@ def test_discriminator_learns_that_falling_is_not_expert_like(tmp_path, monkeypa
     """InvertedPendulum's expert never drops the pole; an untrained policy drops it every few
     dozen steps. Within a few updates D must judge the absorbing state as the policy's: the
     signed reward there turns negative, so falling costs for the rest of the horizon."""
-    from bench import demos, paths
-    from bench.trial import run_trial
-    from bench.types import TrialSpec
+    from bench.harness import demos, paths
+    from bench.harness.trial import run_trial
+    from bench.harness.types import TrialSpec
 
     monkeypatch.setattr(paths, "CACHE_DIR", tmp_path / "cache")
     spec = TrialSpec(

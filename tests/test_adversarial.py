@@ -2,11 +2,12 @@ import numpy as np
 import pytest
 import torch
 
-from algorithms.adversarial import REWARDS, AdversarialConfig, disc_normalizer
-from bench.pixels import PixelConfig
-from bench.registry import Task
+from algorithms.adversarial import AdversarialConfig, disc_normalizer
+from bench.harness.pixels import PixelConfig
+from bench.harness.registry import Task
+from bench.imitation.data import Demos
+from bench.imitation.discriminator import REWARDS
 from bench.rl.networks import PixelScale, RunningNorm
-from bench.types import Demos
 
 
 def test_reward_forms_have_the_documented_signs():
@@ -41,7 +42,8 @@ def test_an_unknown_d_scale_is_refused():
 
 
 def test_a_paused_discriminator_takes_no_step_and_still_reports_its_losses():
-    from algorithms.adversarial import Discriminator, discriminator_step
+    from algorithms.adversarial import discriminator_step
+    from bench.imitation.discriminator import Discriminator
     from bench.rl.absorbing import Transitions
 
     def transitions(loc: float) -> Transitions:

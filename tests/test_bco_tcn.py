@@ -7,10 +7,12 @@ import pytest
 import torch
 
 from algorithms import bco, tcn
-from bench import envs, registry
+from bench.harness import envs, registry
+from bench.harness.trial import plan, run_trial
+from bench.harness.types import TrialSpec
+from bench.imitation import embedding, inverse_dynamics
+from bench.imitation.data import Demos
 from bench.rl.rollout import VecCollector
-from bench.trial import plan, run_trial
-from bench.types import Demos, TrialSpec
 
 PENDULUM = "InvertedPendulumBulletEnv-v0"
 
@@ -83,21 +85,21 @@ def test_inverse_model_recovers_random_actions():
         return tuple(torch.from_numpy(batch.flat(k)) for k in ("obs", "actions", "next_obs"))
 
     s, a, s_next = train = transitions(8000, 0)
-    model = bco.InverseModel(s.shape[1], a.shape[1], cfg.inverse_hidden)
+    model = inverse_dynamics.InverseModel(s.shape[1], a.shape[1], cfg.inverse_hidden)
     model.update_norms(s.numpy(), s_next.numpy())
     torch.manual_seed(0)
     opt = torch.optim.Adam(model.net.parameters(), lr=cfg.inverse_lr)
-    bco.fit_inverse(
+    inverse_dynamics.fit_inverse(
         model, opt, train, cfg.inverse_steps, cfg.minibatch, torch.Generator().manual_seed(0)
     )
-    error = bco.inverse_error(model, transitions(2000, 50))
+    error = inverse_dynamics.inverse_error(model, transitions(2000, 50))
     assert error["inverse_val_r2"] > 0.95, error  # actions have variance 1/3; MSE < 0.017
 
 
 def test_triplets_respect_window_and_margin():
     cfg = tcn.TCNConfig(pos_window=3, neg_margin=15)
     lengths = np.array([200, 20, 10])  # the last has no step 15 away from another: never drawn
-    ep, a, p, n = tcn.sample_triplets(lengths, 20_000, cfg, np.random.default_rng(0))
+    ep, a, p, n = embedding.sample_triplets(lengths, 20_000, cfg, np.random.default_rng(0))
     assert set(ep) == {0, 1}
     gap_p, gap_n = np.abs(p - a), np.abs(n - a)
     assert gap_p.min() == 1 and gap_p.max() == 3 and gap_n.min() >= 15
@@ -106,10 +108,10 @@ def test_triplets_respect_window_and_margin():
 
 def test_demo_targets_hold_the_last_state():
     cfg = tcn.TCNConfig(embed_dim=4)
-    embed = tcn.Embedding(2, cfg)
+    embed = embedding.Embedding(2, cfg)
     long, short = np.random.default_rng(0).normal(size=(2, 6, 2)).astype(np.float32)
     short = short[:3]
-    targets = tcn.demo_targets(embed, Demos(PENDULUM, (long, short)))
+    targets = embedding.demo_targets(embed, Demos(PENDULUM, (long, short)))
     with torch.no_grad():
         e_long, e_short = embed(torch.from_numpy(long)), embed(torch.from_numpy(short))
     assert targets.shape == (6, 4)

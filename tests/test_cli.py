@@ -280,7 +280,7 @@ def test_a_record_of_another_budget_is_refused_not_averaged_in(
     record = next((results / "trials").glob("*.json"))
     raw = json.loads(record.read_text())
     raw["spec"]["budget"] *= 10
-    from bench.types import TrialSpec
+    from bench.harness.types import TrialSpec
 
     foreign = TrialSpec(**raw["spec"]).trial_id  # named as a record of that trial would be
     (results / "trials" / f"{foreign}.json").write_text(json.dumps(raw))
@@ -294,7 +294,7 @@ def test_an_ok_record_without_a_finite_return_is_reported(finished_results, tmp_
     import json
 
     results = _copy(finished_results, tmp_path / "res")
-    from bench.types import TrialSpec
+    from bench.harness.types import TrialSpec
 
     raw = json.loads(next((results / "trials").glob("*.json")).read_text())
     raw["spec"]["seed"], raw["returns"] = 7, [None, None]  # a second seed, with no return

@@ -6,7 +6,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from bench import stats, store
+from bench.analysis import stats
+from bench.harness import store
 
 REFERENCE = Path(__file__).parents[1] / "results" / "quick"
 

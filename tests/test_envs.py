@@ -4,7 +4,7 @@ import sys
 import numpy as np
 import pytest
 
-from bench import envs
+from bench.harness import envs
 
 
 def rollout(env_id: str, seed: int, steps: int = 200) -> np.ndarray:
@@ -31,9 +31,9 @@ def test_same_seed_same_rollout(env_id):
     ["HopperBulletEnv-v0", "Walker2DBulletEnv-v0", "HalfCheetahBulletEnv-v0", "AntBulletEnv-v0"],
 )
 def test_the_speed_patches_step_like_the_library(env_id):
-    """bench.bullet_speed reads the same simulator state with fewer calls: a speed-up only, so
+    """bench.harness.bullet_speed reads the same simulator state with fewer calls: a speed-up only, so
     the same seed gives the same trajectory, bit for bit, through falls and resets."""
-    from bench import bullet_speed
+    from bench.harness import bullet_speed
 
     fast = rollout(env_id, 5, steps=400)
     bullet_speed.restore()
@@ -61,7 +61,7 @@ def test_spaces_of_a_plain_gymnasium_env():
 
 
 def test_pybullet_noise_does_not_reach_stdout():
-    code = "from bench import envs; e = envs.make('HopperBulletEnv-v0', 0); e.step(e.action_space.sample()); print('ok')"
+    code = "from bench.harness import envs; e = envs.make('HopperBulletEnv-v0', 0); e.step(e.action_space.sample()); print('ok')"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout == "ok\n"
     assert "argv[0]" not in out.stderr and "build time" not in out.stderr

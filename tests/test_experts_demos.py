@@ -8,9 +8,10 @@ import numpy as np
 import pytest
 import torch
 
-from bench import cli, demos, experts, paths
+from bench import cli
+from bench.harness import demos, experts, paths
+from bench.imitation.data import ActionDemos, Demos
 from bench.rl.trpo import TRPOConfig
-from bench.types import ActionDemos, Demos
 
 
 @pytest.fixture(scope="module")
@@ -166,7 +167,7 @@ def test_killed_expert_training_resumes_from_its_checkpoint(tmp_path):
     env_id, out = "InvertedPendulumBulletEnv-v0", tmp_path / "expert"
     settings = f"{env_id!r}, 65536, seed=0, cfg=TRPOConfig(n_envs=4, steps_per_env=256)"
     script = (
-        "from pathlib import Path\nfrom bench import experts\nfrom bench.rl.trpo import TRPOConfig\n"
+        "from pathlib import Path\nfrom bench.harness import experts\nfrom bench.rl.trpo import TRPOConfig\n"
         f"experts.train_expert({settings}, out_dir=Path({str(out)!r}), progress=False,"
         " checkpoint_every=0.0)\n"
     )

@@ -6,9 +6,10 @@ seeds with headroom, never "seed k passes"; each was checked on two disjoint see
 
 import pytest
 
-from bench import normalize, store
-from bench.runner import run_suite
-from bench.suite import expand, load_suite
+from bench.analysis import normalize
+from bench.harness import store
+from bench.harness.runner import run_suite
+from bench.harness.suite import load_suite
 
 PENDULUM = "InvertedPendulumBulletEnv-v0"
 SEEDS = [0, 1, 2, 3]
@@ -19,7 +20,7 @@ pytestmark = [pytest.mark.usefixtures("demo_cache"), pytest.mark.slow]
 
 def run(tmp_path, body: str):
     (tmp_path / "s.yaml").write_text(body)
-    specs = expand(load_suite(tmp_path / "s.yaml"))
+    specs = list(load_suite(tmp_path / "s.yaml").trials)
     summary = run_suite(specs, tmp_path / "res", jobs=2, progress=False)
     assert summary.failed == 0
     return normalize.normalize(store.load(tmp_path / "res"))

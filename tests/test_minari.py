@@ -8,8 +8,9 @@ import numpy as np
 import pytest
 from minari.data_collector import EpisodeBuffer
 
-from bench import cli, demos, minari_io, store
-from bench.suite import load_suite
+from bench import cli
+from bench.harness import demos, minari_io, store
+from bench.harness.suite import load_suite
 
 PENDULUM = "InvertedPendulumBulletEnv-v0"
 
@@ -119,7 +120,7 @@ def test_a_trial_runs_from_an_imported_dataset_without_a_shipped_expert(
     dataset, _ = exported
     folder = str(minari.storage.get_dataset_path(dataset.id))
     monkeypatch.setattr(
-        "bench.paths.EXPERTS_DIR", tmp_path / "no-experts"
+        "bench.harness.paths.EXPERTS_DIR", tmp_path / "no-experts"
     )  # the 1.0 is the dataset
     suite = write_suite(tmp_path, folder, "random, expert, gaifo")
     assert cli.main(["run", str(suite), "--results", str(tmp_path / "res"), "--jobs", "1"]) == 0

@@ -8,8 +8,8 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from bench import stats
-from bench.normalize import NormalizationError, normalize, reference_returns
+from bench.analysis import stats
+from bench.analysis.normalize import NormalizationError, normalize, reference_returns
 
 from frames import described
 

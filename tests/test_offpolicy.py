@@ -6,11 +6,11 @@ import pytest
 import torch
 
 from algorithms import offpolicy
-from bench import registry, store
+from bench.harness import registry, store
+from bench.harness.runner import run_suite
+from bench.harness.suite import load_suite
 from bench.rl import sac
 from bench.rl.absorbing import FLAG
-from bench.runner import run_suite
-from bench.suite import expand, load_suite
 
 PENDULUM = "InvertedPendulumBulletEnv-v0"
 TINY = {"hidden": [16, 16], "learning_starts": 300, "batch_size": 32}
@@ -37,7 +37,7 @@ def test_a_termination_leads_into_the_absorbing_loop_and_a_truncation_does_not()
 
 
 def test_every_termination_reaches_the_buffer_as_an_absorbing_transition(pendulum):
-    from bench import envs
+    from bench.harness import envs
 
     episodes = []
 
@@ -57,9 +57,9 @@ def test_every_termination_reaches_the_buffer_as_an_absorbing_transition(pendulu
 
 
 def test_rewards_come_from_the_current_discriminator(pendulum):
-    from bench import demos as demo_pool
-    from bench import envs
-    from bench.trial import demo_pool as pool_of
+    from bench.harness import demos as demo_pool
+    from bench.harness import envs
+    from bench.harness.trial import demo_pool as pool_of
 
     demos = demo_pool.load_demos(pool_of(pendulum, None), pendulum, 2, 0)
     obs_dim = envs.spaces(pendulum)[0]
@@ -96,7 +96,7 @@ def test_the_controls_are_matched_and_every_off_policy_learner_runs(tmp_path):
         f" expert, gaifo-sac: {tiny}, gail-sac: {tiny}, survival-sac: {tiny},"
         f" oracle-sac: {tiny}, opolo: {opolo}]\nseeds: 1\neval_episodes: 2\n"
     )
-    specs = expand(load_suite(tmp_path / "s.yaml"))
+    specs = list(load_suite(tmp_path / "s.yaml").trials)
     assert run_suite(specs, tmp_path / "res", jobs=2, progress=False).failed == 0
     records = {r.spec.algorithm: r for r in store.scan(tmp_path / "res")}
     learners = ("gaifo-sac", "gail-sac", "survival-sac", "oracle-sac", "opolo")
@@ -105,9 +105,9 @@ def test_the_controls_are_matched_and_every_off_policy_learner_runs(tmp_path):
     assert {"disc_acc_expert", "inverse_loss", "inverse_gap"} <= set(records["opolo"].logs)
     # InvertedPendulum pays +1 per step alive: there the two controls are one learner
     assert records["oracle-sac"].returns == records["survival-sac"].returns
-    from bench import policies
+    from bench.harness import policies
+    from bench.harness.trial import EVAL_SEED, plan
     from bench.rl.rollout import evaluate
-    from bench.trial import EVAL_SEED, plan
 
     spec = records["gaifo-sac"].spec  # its kept policy acts as it did when scored
     policy = policies.load(policies.path(tmp_path / "res", spec.trial_id))
@@ -121,10 +121,10 @@ def test_opolo_rewards_come_from_the_current_discriminator_and_its_dual_term_low
     critic's dual term pushes Q down at the policy's actions: with alpha > 0, Q there ends
     lower than with alpha = 0, on the same data."""
     from algorithms.opolo import OPOLO, OPOLOConfig
-    from bench import demos as demo_pool
-    from bench import envs
-    from bench.registry import Task
-    from bench.trial import demo_pool as pool_of
+    from bench.harness import demos as demo_pool
+    from bench.harness import envs
+    from bench.harness.registry import Task
+    from bench.harness.trial import demo_pool as pool_of
 
     demos = demo_pool.load_demos(pool_of(pendulum, None), pendulum, 2, 0)
     obs_dim, act_dim, low, high = envs.spaces(pendulum)
@@ -159,10 +159,10 @@ def test_opolo_rewards_come_from_the_current_discriminator_and_its_dual_term_low
 def test_device_setting_runs_the_learner_there_and_keeps_a_cpu_policy(name, pendulum):
     """`device` moves the networks and updates; the kept policy is a CPU one either way. On a
     machine without a GPU, asking for one fails at the trial's start, in one line."""
-    from bench import demos as demo_pool
-    from bench import envs
-    from bench.registry import Task
-    from bench.trial import demo_pool as pool_of
+    from bench.harness import demos as demo_pool
+    from bench.harness import envs
+    from bench.harness.registry import Task
+    from bench.harness.trial import demo_pool as pool_of
 
     demos = demo_pool.load_demos(pool_of(pendulum, None), pendulum, 1, 0)
     obs_dim, act_dim, low, high = envs.spaces(pendulum)

@@ -2,16 +2,16 @@ import numpy as np
 import pytest
 import torch
 
-from bench import demos, envs, runner, store, trial
-from bench.experts import load_expert
-from bench.pixels import PixelConfig, VideoBeside
+from bench.harness import demos, envs, runner, store, trial
+from bench.harness.experts import load_expert
+from bench.harness.pixels import PixelConfig, VideoBeside
+from bench.harness.runner import run_suite
+from bench.harness.suite import load_suite
+from bench.imitation.data import Demos
 from bench.rl.networks import GaussianPolicy
 from bench.rl.rollout import VecCollector
 from bench.rl.shared_trunk import SharedTrunkTRPO, make_trpo, mean_kl
 from bench.rl.trpo import TRPO, TRPOConfig, policy_step
-from bench.runner import run_suite
-from bench.suite import expand, load_suite
-from bench.types import Demos
 
 HOPPER = "HopperBulletEnv-v0"
 
@@ -104,7 +104,7 @@ def tiny_suite(tmp_path, monkeypatch, observation: str) -> list:
         f" tcn: {{n_envs: 2, steps_per_env: 64, embed_steps: 5}}]\n"
         "seeds: [0]\neval_episodes: 2\n"
     )
-    return expand(load_suite(tmp_path / "s.yaml"))
+    return list(load_suite(tmp_path / "s.yaml").trials)
 
 
 @pytest.mark.usefixtures("demo_cache")
@@ -120,7 +120,7 @@ def test_a_tiny_pixel_suite_runs_end_to_end(tmp_path, monkeypatch):
         assert records[learner].env_steps == 256 and len(records[learner].logs["kl"]) == 2
     assert {"disc_loss", "reward_absorbing"} <= set(records["gaifo"].logs)
     # a pixel learner is filmed from what it saw, beside the full view: two squares per panel
-    from bench.video import compose, panels, rollout
+    from bench.analysis.video import compose, panels, rollout
 
     chosen = panels(tmp_path / "res", algorithms=["gaifo"])
     films = [rollout(p, PENDULUM, 48, 5, 100_000) for p in chosen]

@@ -8,7 +8,7 @@ import pytest
 from matplotlib.container import BarContainer
 from matplotlib.patches import Rectangle
 
-from bench import labels, markdown, plot, stats
+from bench.analysis import labels, markdown, plot, stats
 
 from frames import described
 

@@ -3,11 +3,11 @@
 import pytest
 import torch
 
-from bench import policies, store
+from bench.harness import policies, store
+from bench.harness.runner import run_suite
+from bench.harness.suite import load_suite
+from bench.harness.trial import EVAL_SEED, plan
 from bench.rl.rollout import evaluate
-from bench.runner import run_suite
-from bench.suite import expand, load_suite
-from bench.trial import EVAL_SEED, plan
 
 PENDULUM = "InvertedPendulumBulletEnv-v0"
 
@@ -23,7 +23,7 @@ def finished(tmp_path_factory):
         f"algorithms: [random, expert, gaifo: {tiny}, survival: {tiny}, bco: {{pre_demo_steps: 512,"
         " inverse_steps: 20, inverse_refit_steps: 10, bc_steps: 20}]\nseeds: 2\neval_episodes: 3\n"
     )
-    specs = expand(load_suite(root / "s.yaml"))
+    specs = list(load_suite(root / "s.yaml").trials)
     summary = run_suite(specs, root / "res", jobs=2, progress=False, tensorboard=root / "tb")
     assert summary.failed == 0
     return specs, root
@@ -50,7 +50,7 @@ def test_a_saved_policy_reproduces_its_records_evaluation(finished):
 def test_a_linked_record_finds_its_policy_where_it_ran(finished):
     specs, root = finished
     (root / "t.yaml").write_text((root / "s.yaml").read_text().replace("name: keep", "name: other"))
-    others = expand(load_suite(root / "t.yaml"))
+    others = list(load_suite(root / "t.yaml").trials)
     summary = run_suite(others, root / "copy", jobs=1, progress=False, priced_by=root)
     assert summary.linked == len(others) and summary.done == 0
     for theirs in others:
@@ -103,7 +103,7 @@ def test_a_video_of_nothing_is_one_line(finished, tmp_path, bench_here, args, me
 def test_every_logged_scalar_is_a_tensorboard_event(finished):
     from tensorboard.backend.event_processing.event_accumulator import EventAccumulator
 
-    from bench.trial import event_dir
+    from bench.harness.trial import event_dir
 
     specs, root = finished
     for spec in specs:

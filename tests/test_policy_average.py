@@ -3,7 +3,7 @@
 import numpy as np
 import torch
 
-from bench.learners import PolicyAverage
+from bench.harness.learners import PolicyAverage
 from bench.rl.networks import GaussianPolicy
 
 

@@ -7,9 +7,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from bench import registry
-from bench.trial import plan, run_trial
-from bench.types import ActionDemos, Demos, TrialSpec
+from bench.harness import registry
+from bench.harness.trial import plan, run_trial
+from bench.harness.types import TrialSpec
+from bench.imitation.data import ActionDemos, Demos
 
 PENDULUM = "InvertedPendulumBulletEnv-v0"
 README = Path(__file__).resolve().parent.parent / "README.md"
@@ -70,7 +71,7 @@ def test_the_plugin_page_installs_and_runs_as_written(tmp_path, cli):
     )
     out = cli("run", str(suite), "--results", str(tmp_path / "res"), "--jobs", "1", env=env)
     assert out.returncode == 0, out.stderr
-    from bench import store
+    from bench.harness import store
 
     runs = store.load(tmp_path / "res")
     row = runs[runs.algorithm == "nearest-state"].iloc[0]
@@ -78,27 +79,27 @@ def test_the_plugin_page_installs_and_runs_as_written(tmp_path, cli):
 
 
 def test_trial_id_covers_resolved_defaults(tmp_path):
-    from bench.suite import expand, load_suite
+    from bench.harness.suite import load_suite
 
     def ids(algorithms: str) -> set[str]:
         path = tmp_path / "s.yaml"
         path.write_text(
             f"envs: {{{PENDULUM}: {{budget: 4096}}}}\ndemos: [1]\nalgorithms: {algorithms}\nseeds: 1\n"
         )
-        return {s.trial_id for s in expand(load_suite(path)) if s.algorithm == "gaifo"}
+        return {s.trial_id for s in list(load_suite(path).trials) if s.algorithm == "gaifo"}
 
     plain = ids("[random, expert, gaifo]")
     assert plain == ids("[random, expert, {gaifo: {disc_lr: 0.0003}}]")  # the default, spelled out
     assert plain != ids("[random, expert, {gaifo: {disc_lr: 0.001}}]")
-    spec = next(s for s in expand(load_suite(tmp_path / "s.yaml")) if s.algorithm == "gaifo")
+    spec = next(s for s in list(load_suite(tmp_path / "s.yaml").trials) if s.algorithm == "gaifo")
     assert spec.hyperparams["grad_penalty"] == 10.0  # defaults are in the hashed spec
 
 
 def test_the_controls_run_the_imitators_trpo_settings(tmp_path):
     """survival and oracle differ from GAIfO and GAIL only in their reward: same config class as
     their TRPO part, and a suite env's trpo: and hyperparams: settings reach all four alike."""
-    from bench.learners import ImitationTRPOConfig
-    from bench.suite import expand, load_suite
+    from bench.harness.learners import ImitationTRPOConfig
+    from bench.harness.suite import load_suite
 
     algos = registry.all_algorithms()
     for control in ("survival", "oracle"):
@@ -110,7 +111,7 @@ def test_the_controls_run_the_imitators_trpo_settings(tmp_path):
         " hyperparams: {disc_steps: 25, steps_per_env: 128}}}\n"
         "demos: [1]\nalgorithms: [gaifo, gail, survival, oracle]\nseeds: 1\n"
     )
-    settings = {s.algorithm: s.hyperparams for s in expand(load_suite(suite))}
+    settings = {s.algorithm: s.hyperparams for s in list(load_suite(suite).trials)}
     trpo_fields = set(settings["oracle"])
     assert settings["oracle"] == settings["survival"]
     assert settings["oracle"]["n_envs"] == 16 and settings["oracle"]["steps_per_env"] == 128
@@ -145,7 +146,7 @@ def test_a_broken_plugin_is_named_once_and_the_rest_works(tmp_path, cli, install
 
 def test_a_plugin_that_takes_a_builtin_name_is_an_error_naming_both(tmp_path, cli, install_plugin):
     code = (
-        "from dataclasses import dataclass\nfrom bench.registry import register\n\n"
+        "from dataclasses import dataclass\nfrom bench.harness.registry import register\n\n"
         "@dataclass\nclass C:\n    pass\n\n"
         "@register('gaifo', config=C, inputs='states')\n"
         "def train(task, demos, budget, seed, logger, config):\n    pass\n"
@@ -163,8 +164,8 @@ def test_every_committed_record_is_still_a_trial_of_its_suite():
     record went stale or changed id)."""
     from collections import defaultdict
 
-    from bench import store
-    from bench.suite import expand, load_suite
+    from bench.harness import store
+    from bench.harness.suite import expand, load_suite
 
     root = README.parent
     ids: dict[str, set[str]] = defaultdict(set)
@@ -185,8 +186,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from bench.learners import ImitationTRPOConfig, one_batch, trpo_on_reward
-from bench.registry import register
+from bench.harness.learners import ImitationTRPOConfig, one_batch, trpo_on_reward
+from bench.harness.registry import register
 
 
 @register("standing", config=ImitationTRPOConfig, inputs="none", min_budget=one_batch,
@@ -235,9 +236,10 @@ def test_a_plugin_control_is_drawn_and_reported_as_one_and_its_policy_is_kept(
     """Roles are declared, not guessed from names: a plugin registered as a floor control is
     drawn as a floor's line and every learner of its family is compared with it; a plugin's
     own policy class is kept like a built-in's and acts as it did when evaluated."""
-    from bench import plot, policies, store
-    from bench.labels import Names
-    from bench.normalize import normalize
+    from bench.analysis import plot
+    from bench.analysis.labels import Names
+    from bench.analysis.normalize import normalize
+    from bench.harness import policies, store
 
     env = install_plugin(
         tmp_path / "site",
@@ -274,7 +276,7 @@ def test_a_plugin_control_is_drawn_and_reported_as_one_and_its_policy_is_kept(
         file = policies.path(results, row.trial_id)
         assert file.is_file(), "a plugin's own policy class is kept"
     code = (
-        "import sys, numpy as np\nfrom bench import policies\n"
+        "import sys, numpy as np\nfrom bench.harness import policies\n"
         "p = policies.load(sys.argv[1])\nprint(type(p).__name__, p(np.zeros((1, 5))).shape)\n"
     )
     loaded = subprocess.run(

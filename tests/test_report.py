@@ -10,8 +10,10 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from bench import cli, comparisons, labels, markdown, report, stats, store
-from bench.types import CurvePoint, TrialResult, TrialSpec
+from bench import cli
+from bench.analysis import comparisons, labels, markdown, report, stats
+from bench.harness import store
+from bench.harness.types import CurvePoint, TrialResult, TrialSpec
 
 from frames import names
 
@@ -397,7 +399,7 @@ def test_screen_variants_on_one_env_each_leave_the_pooled_statistics_not_the_oth
     run on every env the widest share, and says which it left out, instead of no statistics."""
     import pandas as pd
 
-    from bench.comparisons import pooled
+    from bench.analysis.comparisons import pooled
 
     rows = [("A", "gaifo"), ("B", "gaifo"), ("A", "gail"), ("B", "gail"), ("A", "gaifo-x")]
     rows += [("B", "gaifo-y")]

@@ -13,12 +13,13 @@ import numpy as np
 import pytest
 from matplotlib.patches import Rectangle
 
-from bench import normalize, plot, store
-from bench.costs import CostModel, TimeLimit, estimate
-from bench.runner import _jobs, run_suite
-from bench.snapshots import SnapshotPlan
-from bench.suite import expand, load_suite
-from bench.types import TrialResult, TrialSpec
+from bench.analysis import normalize, plot
+from bench.harness import store
+from bench.harness.costs import CostModel, TimeLimit, estimate
+from bench.harness.runner import _jobs, run_suite
+from bench.harness.snapshots import SnapshotPlan
+from bench.harness.suite import load_suite
+from bench.harness.types import TrialResult, TrialSpec
 
 PENDULUM = "InvertedPendulumBulletEnv-v0"
 
@@ -72,7 +73,7 @@ def test_killed_run_resumes_without_losing_or_duplicating(tmp_path, cli):
     after = {p.name: p.read_bytes() for p in (results / "trials").glob("*.json")}
     assert len(after) == 8 and not list((results / "trials").glob("*.tmp"))
     assert all(after[name] == data for name, data in before.items())  # finished trials untouched
-    ids = {s.trial_id for s in expand(load_suite(suite))}
+    ids = {s.trial_id for s in list(load_suite(suite).trials)}
     assert {name.removesuffix(".json") for name in after} == ids
 
 
@@ -83,7 +84,7 @@ def test_dask_backend_matches_loky(tmp_path, on_dask):
         "dask",
         f"envs: {{{PENDULUM}: {{budget: 4096}}}}\ndemos: [1]\nalgorithms: [random, gaifo]\nseeds: 2\neval_episodes: 2\n",
     )
-    specs = expand(load_suite(suite))
+    specs = list(load_suite(suite).trials)
     loky = run_suite(specs, tmp_path / "loky", jobs=2, progress=False)
     assert loky.done == len(specs) == 4
     dask = on_dask(specs, tmp_path / "dask", workers=2)
@@ -99,7 +100,7 @@ def test_dask_backend_matches_loky(tmp_path, on_dask):
 
 
 FLAKY = (
-    "from dataclasses import dataclass\nfrom bench.registry import register\n\n"
+    "from dataclasses import dataclass\nfrom bench.harness.registry import register\n\n"
     "@dataclass\nclass C:\n    pass\n\n"
     "@register('flaky', config=C, inputs='none')\n"
     "def train(task, demos, budget, seed, logger, config):\n"
@@ -109,7 +110,7 @@ FLAKY = (
 
 DYING = (
     "import os, signal, sys\nfrom dataclasses import dataclass\n"
-    "import numpy as np\nfrom bench.registry import register\n\n"
+    "import numpy as np\nfrom bench.harness.registry import register\n\n"
     "@dataclass\nclass C:\n    pass\n\n"
     "@register('dying', config=C, inputs='none')\n"
     "def train(task, demos, budget, seed, logger, config):\n"
@@ -381,9 +382,9 @@ def test_two_suites_that_ask_for_the_same_trial_share_one_record(tmp_path):
         tiny + "algorithms: [random, expert, survival]\nseeds: 2\neval_episodes: 2\n",
     )
     results = tmp_path / "results"
-    first = run_suite(expand(load_suite(screen)), results / "screen", jobs=1, progress=False)
+    first = run_suite(list(load_suite(screen).trials), results / "screen", jobs=1, progress=False)
     assert first.failed == 0 and first.done == 6
-    specs = expand(load_suite(suite))
+    specs = list(load_suite(suite).trials)
     second = run_suite(specs, results / "figure", jobs=1, progress=False, priced_by=results)
     assert (second.done, second.linked, second.skipped) == (0, 6, 6)
     files = sorted(store.trials_dir(results / "figure").glob("*.json"))

@@ -12,12 +12,12 @@ import time
 
 import pytest
 
-from bench import policies, store
-from bench.costs import TimeLimit, estimate
-from bench.runner import run_suite
-from bench.snapshots import FOLDER, SnapshotPlan
-from bench.suite import expand, load_suite
-from bench.types import TrialResult, TrialSpec
+from bench.harness import policies, store
+from bench.harness.costs import TimeLimit, estimate
+from bench.harness.runner import run_suite
+from bench.harness.snapshots import FOLDER, SnapshotPlan
+from bench.harness.suite import load_suite
+from bench.harness.types import TrialResult, TrialSpec
 
 PENDULUM = "InvertedPendulumBulletEnv-v0"
 
@@ -71,7 +71,7 @@ def test_a_killed_then_paused_trial_resumes_and_ends_as_if_never_stopped(
         f"name: snap\nenvs: {{{PENDULUM}: {{budget: {budget}}}}}\ndemos: [1]\n"
         f"algorithms: {algorithms}\nseeds: 1\neval_episodes: 2\n"
     )
-    specs = expand(load_suite(suite))
+    specs = list(load_suite(suite).trials)
     # Under parents of their own: a run links what a folder beside it has finished.
     whole = tmp_path / "a" / "whole"
     assert run_suite(specs, whole, jobs=2, progress=False, snapshot_every=None).failed == 0
@@ -146,7 +146,7 @@ from dataclasses import dataclass
 import numpy as np
 import torch
 
-from bench.registry import register, snapshots_of
+from bench.harness.registry import register, snapshots_of
 from bench.rl.resume import Resumable
 from bench.rl.rollout import VecCollector
 

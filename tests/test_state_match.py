@@ -1,12 +1,12 @@
-"""bench.state_match on hand-computed cases, and the distance a real trial records."""
+"""bench.harness.state_match on hand-computed cases, and the distance a real trial records."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from bench import state_match, trial
-from bench.types import TrialSpec
+from bench.harness import state_match, trial
+from bench.harness.types import TrialSpec
 
 
 def test_identical_samples_are_at_distance_zero():

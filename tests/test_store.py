@@ -10,8 +10,8 @@ import time
 import numpy as np
 import pytest
 
-from bench import registry, store
-from bench.types import CurvePoint, TrialResult, TrialSpec
+from bench.harness import registry, store
+from bench.harness.types import CurvePoint, TrialResult, TrialSpec
 
 
 def spec(algorithm="gaifo", seed=0, n_demos=5, env_id="HopperBulletEnv-v0") -> TrialSpec:
@@ -233,7 +233,7 @@ def test_scan_under_leaves_out_a_folder_read_already(tmp_path):
 )
 def test_a_malformed_record_is_named_once_and_left_out(tmp_path, edit, named):
     """A record with a wrong type or a missing field never reaches costs, reports or links."""
-    from bench.costs import CostModel
+    from bench.harness.costs import CostModel
 
     folder = tmp_path / "res"
     good = store.write(folder, result(spec(seed=1)))
@@ -252,7 +252,7 @@ def test_a_malformed_record_is_named_once_and_left_out(tmp_path, edit, named):
 
 
 def test_a_renamed_record_is_left_out_and_an_ok_one_without_returns_is_retried(tmp_path):
-    from bench.runner import pending
+    from bench.harness.runner import pending
 
     path = store.write(tmp_path, result())
     path.rename(path.with_name("0123456789abcdef.json"))

@@ -8,10 +8,17 @@ from pathlib import Path
 import pytest
 import yaml
 
-from bench import paths, registry
+from bench.harness import paths, registry
+from bench.harness.suite import (
+    DEMO_POOL_SIZE,
+    RunnerSettings,
+    SuiteError,
+    expand,
+    load_suite,
+    select,
+)
+from bench.harness.types import CURVE_POINTS
 from bench.rl.trpo import TRPOConfig
-from bench.suite import DEMO_POOL_SIZE, RunnerSettings, SuiteError, expand, load_suite, select
-from bench.types import CURVE_POINTS
 
 PENDULUM = "InvertedPendulumBulletEnv-v0"
 HOPPER = "HopperBulletEnv-v0"
@@ -137,6 +144,7 @@ def test_expand_counts_order_and_references(tmp_path):
     assert len(specs) == 2 * (2 * 3 + 2 * 2 * 3)
     assert len({s.trial_id for s in specs}) == len(specs)
     assert expand(suite) == specs  # deterministic
+    assert list(suite.trials) == specs  # resolved once, at load
 
     first = [(s.env_id, s.algorithm, s.n_demos, s.seed) for s in specs[:9]]
     assert first == [
@@ -166,7 +174,7 @@ def test_expand_counts_order_and_references(tmp_path):
 
 def test_select_keeps_a_slice_with_the_same_ids(tmp_path):
     path = write(tmp_path, base())
-    specs = expand(load_suite(path))
+    specs = list(load_suite(path).trials)
     hopper = select(specs, path, env=[HOPPER])
     assert hopper == [s for s in specs if s.env_id == HOPPER]  # same specs, so the same ids
     ifo = select(specs, path, env=[HOPPER, PENDULUM], algorithm=["ifo"])
@@ -176,7 +184,7 @@ def test_select_keeps_a_slice_with_the_same_ids(tmp_path):
 
 def test_select_by_demo_count_keeps_the_trials_without_demonstrations(tmp_path):
     path = write(tmp_path, base())
-    specs = expand(load_suite(path))
+    specs = list(load_suite(path).trials)
     counts = sorted({s.n_demos for s in specs if s.n_demos})
     assert len(counts) > 1, "the test suite needs several demo counts"
     chosen = select(specs, path, demos=[counts[0]])
@@ -193,14 +201,14 @@ def test_a_selection_with_no_trial_fails(tmp_path):
     raw["envs"][HOPPER]["seeds"] = {"ifo": 0}  # ifo runs on the pendulum only
     path = write(tmp_path, raw)
     with pytest.raises(SuiteError, match=r"x\.yaml: no trial of the suite has all of: envs \["):
-        select(expand(load_suite(path)), path, env=[HOPPER], algorithm=["ifo"])
+        select(list(load_suite(path).trials), path, env=[HOPPER], algorithm=["ifo"])
 
 
 @pytest.mark.parametrize("key", ["env", "algorithm"])
 def test_select_of_a_name_not_in_the_suite_fails(tmp_path, key):
     path = write(tmp_path, base())
     with pytest.raises(SuiteError, match=rf"x\.yaml: 'Nope' is not one of the suite's {key}s"):
-        select(expand(load_suite(path)), path, **{key: ["Nope"]})
+        select(list(load_suite(path).trials), path, **{key: ["Nope"]})
 
 
 def _set(raw: dict, keys: tuple, value) -> dict:
@@ -598,3 +606,42 @@ def test_curve_points_sets_the_curves_resolution(tmp_path):
     fewer = expand(load_suite(write(tmp_path, raw | {"curve_points": 3}, "f.yaml")))
     assert {s.curve_points for s in fewer} == {3}
     assert not {s.trial_id for s in fewer} & {s.trial_id for s in plain}  # other records
+
+
+def test_a_settings_file_is_shared_and_a_suites_own_settings_win(tmp_path):
+    """Tuned settings live in one file that suites name: each env it lists gets them, under the
+    suite's own; the trials are those the settings written into the suite would give."""
+    (tmp_path / "settings").mkdir()
+    tuned = {PENDULUM: {"trpo": {"n_envs": 16}, "hyperparams": {"steps": 3}}, "Other-v0": {}}
+    (tmp_path / "settings" / "tuned.yaml").write_text(yaml.safe_dump(tuned))
+    inline = _learners_with_an_own_variant(n_envs=4)
+    _set(inline, ("envs", PENDULUM, "trpo"), {"n_envs": 16, "gamma": 0.995})
+    _set(inline, ("envs", PENDULUM, "hyperparams"), {"steps": 3})
+    shared = _learners_with_an_own_variant(n_envs=4) | {"settings": "settings/tuned.yaml"}
+    _set(shared, ("envs", PENDULUM, "trpo"), {"gamma": 0.995})
+    one = load_suite(write(tmp_path, inline, "inline.yaml")).trials
+    two = load_suite(write(tmp_path, shared, "shared.yaml")).trials
+    assert [s.trial_id for s in one] == [s.trial_id for s in two]
+    by_label = {s.shown: s.hyperparams for s in two if s.env_id == PENDULUM}
+    assert by_label["own"]["n_envs"] == 4 and by_label["trpo-ifo"]["n_envs"] == 16
+    assert by_label["ifo"]["steps"] == 3
+
+
+@pytest.mark.parametrize(
+    ("tuned", "expected"),
+    [
+        (None, "no such settings file"),
+        ("[1, 2]", "expected a mapping of env ids"),
+        (f"{PENDULUM}: {{trpo: {{n_env: 16}}}}", f"{PENDULUM}.trpo.n_env: not a TRPO setting"),
+        (f"{PENDULUM}: {{budget: 5}}", f"{PENDULUM}.budget: unknown key"),
+        (f"{PENDULUM}: {{trpo: {{gamma: 2.0}}}}", f"{PENDULUM}.trpo"),
+    ],
+)
+def test_a_bad_settings_file_is_one_line(tmp_path, tuned, expected):
+    if tuned is not None:
+        (tmp_path / "tuned.yaml").write_text(tuned)
+    path = write(tmp_path, base() | {"settings": "tuned.yaml"}, "s.yaml")
+    with pytest.raises(SuiteError) as error:
+        load_suite(path)
+    message = str(error.value)
+    assert expected in message and "\n" not in message, message

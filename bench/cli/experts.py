@@ -16,8 +16,9 @@ if TYPE_CHECKING:
 
 
 def _experts_train(args: argparse.Namespace) -> int:
-    from bench import envs, paths, validate
-    from bench.experts import ExpertConfig, ExpertError, train_expert
+    from bench import validate
+    from bench.harness import envs, paths
+    from bench.harness.experts import ExpertConfig, ExpertError, train_expert
 
     envs.check_env_id(args.env_id)
     batch = {"n_envs": args.n_envs, "steps_per_env": args.steps_per_env}
@@ -62,7 +63,7 @@ def _experts_train(args: argparse.Namespace) -> int:
 
 def _trpo_overrides(text: str) -> dict:
     """argparse type: a JSON object of ExpertConfig fields, or an argparse error naming the problem."""
-    from bench.experts import ExpertConfig
+    from bench.harness.experts import ExpertConfig
 
     try:
         value = json.loads(text)
@@ -100,9 +101,9 @@ def experts_cells(experts: list[dict]) -> pd.DataFrame:
 
 
 def _experts_list(args: argparse.Namespace) -> int:
-    from bench import markdown
-    from bench.experts import list_experts
-    from bench.paths import EXPERTS_DIR
+    from bench.analysis import markdown
+    from bench.harness.experts import list_experts
+    from bench.harness.paths import EXPERTS_DIR
 
     rows = list_experts()
     if not rows:
@@ -124,7 +125,7 @@ def _experts_list(args: argparse.Namespace) -> int:
 
 
 def _list(args: argparse.Namespace) -> int:
-    from bench import registry
+    from bench.harness import registry
 
     print("algorithms:")
     for name, algo in sorted(registry.all_algorithms().items()):
@@ -135,7 +136,8 @@ def _list(args: argparse.Namespace) -> int:
 
 
 def _demos_export(args: argparse.Namespace) -> int:
-    from bench import minari_io, normalize, store
+    from bench.analysis import normalize
+    from bench.harness import minari_io, store
 
     if not Path(args.references).is_dir():
         raise FileNotFoundError(f"{args.references}: no such results folder")
@@ -159,7 +161,7 @@ def _demos_export(args: argparse.Namespace) -> int:
 
 
 def _demos_show(args: argparse.Namespace) -> int:
-    from bench import demos, envs
+    from bench.harness import demos, envs
 
     envs.check_env_id(args.env_id)
     if args.demos is not None and args.demos > demos.POOL_SIZE:

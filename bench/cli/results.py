@@ -14,7 +14,8 @@ if TYPE_CHECKING:
 
 
 def _plot(args: argparse.Namespace) -> int:
-    from bench import labels, markdown, normalize, plot, store
+    from bench.analysis import labels, markdown, normalize, plot
+    from bench.harness import store
 
     dirs = store.suite_dirs(args.results_dir)
     for d in dirs:
@@ -39,7 +40,7 @@ def _plot(args: argparse.Namespace) -> int:
 
 
 def _report(args: argparse.Namespace) -> int:
-    from bench import report
+    from bench.analysis import report
 
     for written in report.write_reports(args.results_dir, args.out, args.reps):
         tables = report.tables(written.aggregates, written.improvements, written.names)
@@ -49,7 +50,7 @@ def _report(args: argparse.Namespace) -> int:
 
 
 def _compare(args: argparse.Namespace) -> int:
-    from bench import labels, markdown, normalize, stats
+    from bench.analysis import labels, markdown, normalize, stats
 
     run, ref = (_one_suite(args.run), _one_suite(args.reference))
     run_df, ref_df = normalize.normalized_alike(run, ref)
@@ -61,7 +62,7 @@ def _compare(args: argparse.Namespace) -> int:
 
 def _one_suite(folder: str) -> pd.DataFrame:
     """The trial records of the one suite in `folder`."""
-    from bench import store
+    from bench.harness import store
 
     dirs = store.suite_dirs(folder)
     if len(dirs) > 1:

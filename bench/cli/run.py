@@ -11,18 +11,18 @@ from bench.cli.args import duration, folder, jobs_count
 
 
 def _run(args: argparse.Namespace) -> int:
-    from bench.suite import expand, load_suite, select
+    from bench.harness.suite import load_suite, select
 
     suite = load_suite(args.suite)
     specs = select(
-        expand(suite), args.suite, env=args.env, algorithm=args.algorithm, demos=args.demos
+        list(suite.trials), args.suite, env=args.env, algorithm=args.algorithm, demos=args.demos
     )
     # The runner (torch, pandas) after the suite's checks: a suite refused before its checks
     # reach the algorithms (an unknown env, say) is refused ~0.5 s sooner.
-    from bench import store
-    from bench.costs import TimeLimit
-    from bench.runner import run_suite
-    from bench.snapshots import FOLDER
+    from bench.harness import store
+    from bench.harness.costs import TimeLimit
+    from bench.harness.runner import run_suite
+    from bench.harness.snapshots import FOLDER
 
     results = Path(args.results) if args.results else Path("results") / suite.name
     backend = args.backend or suite.runner.backend
@@ -70,10 +70,10 @@ def _estimate(specs: list, results: Path, jobs: int) -> int:
     """Print what the pending trials would cost, from every record under results/'s parent,
     less what the snapshots of cut-off trials have behind them. Trials another suite's folder
     has finished are not pending: a run links them."""
-    from bench import store
-    from bench.costs import estimate
-    from bench.runner import pending
-    from bench.snapshots import SnapshotPlan
+    from bench.harness import store
+    from bench.harness.costs import estimate
+    from bench.harness.runner import pending
+    from bench.harness.snapshots import SnapshotPlan
 
     finished = {r.trial_id: store.status_of(r) for r in store.scan(results)}
     todo = pending(specs, finished, retry_failed=False)

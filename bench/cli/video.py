@@ -14,8 +14,8 @@ if TYPE_CHECKING:
 
 
 def _video(args: argparse.Namespace) -> int:
-    from bench import store
-    from bench.video import VideoError, video
+    from bench.analysis.video import VideoError, video
+    from bench.harness import store
 
     if not store.trials_dir(args.results).is_dir():
         raise FileNotFoundError(f"{args.results}: no trial records (no trials/ folder)")

@@ -1,0 +1,1 @@
+"""The optimizers (TRPO, SAC) and their parts. Imports nothing of the rest of bench."""

@@ -1,5 +1,5 @@
 """An env's current episode as a seed and the actions taken since: enough to bring a new env
-to the very state the old one was in (for snapshots, `bench.snapshots`), since PyBullet steps
+to the very state the old one was in (for snapshots, `bench.harness.snapshots`), since PyBullet steps
 deterministically on one machine. On another machine the replayed state may differ in the
 last bits, as any result does there."""
 

@@ -44,7 +44,7 @@ class Batch:
     """Env returns of the episodes that finished during this batch."""
     frames: np.ndarray | None = None
     """(T, E, F) uint8 flat frames of obs, where the envs film themselves beside their state
-    observations (`bench.pixels.VideoBeside`: a reward judged on video); else None."""
+    observations (`bench.harness.pixels.VideoBeside`: a reward judged on video); else None."""
     next_frames: np.ndarray | None = None
     """(T, E, F) frames of next_obs, like frames."""
 

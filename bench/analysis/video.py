@@ -1,0 +1,192 @@
+"""`bench video`: the expert and learned policies side by side, from the same start state.
+
+A bar says how far a learner got; a video says how: whether GAIfO's hopper hops like the
+expert or leans forward like the survival control. Each panel is one policy, rolled out
+deterministically in its own env reset with the same seed (so every panel starts from the
+same state), filmed in colour, and titled with the normalized return its record scored. A
+panel whose episode ended holds its last frame, dimmed. A pixel learner acts on the frames
+it was trained on; its panel shows them, enlarged, beside the full view.
+
+Computing (which records, their rollouts) is kept apart from drawing (`compose`), and that
+from writing (`write`, imageio: .gif, or .mp4 where imageio-ffmpeg is installed).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+from PIL import Image, ImageDraw, ImageFont
+
+from bench.analysis import labels
+from bench.analysis.labels import Names, is_reference
+from bench.analysis.normalize import normalize
+from bench.errors import BadInput
+from bench.harness import envs, experts, policies, store
+from bench.harness.pixels import PixelConfig
+from bench.harness.registry import Policy
+from bench.harness.trial import EVAL_SEED, plan
+from bench.harness.types import TrialSpec
+from bench.rl.networks import observation
+
+TITLE_HEIGHT = 22
+"""Pixels above each panel for its title."""
+FONT = ImageFont.load_default(size=14)
+
+
+class VideoError(BadInput, ValueError):
+    """A selection that matches nothing playable; the message is one line."""
+
+
+@dataclass(frozen=True)
+class Panel:
+    title: str
+    policy: Policy
+    env_id: str
+    """The env it is filmed in (the folder's env that `panels` chose)."""
+    spec: TrialSpec | None = None
+    """The learner's trial (None: the shipped expert)."""
+
+
+def panels(
+    results_dir: str | Path,
+    env_id: str | None = None,
+    algorithms: list[str] | None = None,
+    n_demos: int | None = None,
+    seed: int = 0,
+) -> list[Panel]:
+    """The expert, then one panel per learner (a label, in plot order) of `results_dir` with a
+    kept policy: its trial at `n_demos` demonstrations (default the largest count run) and
+    `seed`; demonstration-free controls at theirs. `env_id` may be left out where the folder
+    holds one env. Raises VideoError naming what is missing."""
+    trials = store.load(results_dir)
+    if trials.empty:
+        raise VideoError(f"{results_dir}: no trial records")
+    have = labels.env_order(trials["env_id"].unique())
+    if env_id is None:
+        if len(have) > 1:
+            raise VideoError(
+                f"{results_dir} holds {len(have)} envs: pick one with --env ({', '.join(have)})"
+            )
+        env_id = have[0]
+    if env_id not in have:
+        raise VideoError(f"{results_dir} has no trials of {env_id} (has: {', '.join(have)})")
+    rows = normalize(trials[trials["env_id"] == env_id])
+    rows = rows[(rows["status"] == "ok") & ~is_reference(rows)]
+    counts = sorted(int(n) for n in rows["n_demos"].unique() if n > 0)
+    n_demos = n_demos if n_demos is not None else (counts[-1] if counts else 0)
+    if counts and n_demos not in counts:
+        raise VideoError(f"no trials with {n_demos} demos on {env_id} (have: {counts})")
+    rows = rows[(rows["n_demos"].isin([0, n_demos])) & (rows["seed"] == seed)]
+    shown = Names.of(rows)
+    names = shown.order(rows["algorithm"].unique())
+    if algorithms:
+        unknown = sorted(set(algorithms) - set(names))
+        if unknown:
+            raise VideoError(
+                f"no {', '.join(unknown)} with seed {seed} on {env_id} (have: {', '.join(names)})"
+            )
+        names = [a for a in names if a in algorithms]
+    result = [Panel("Expert 1.00", experts.load_expert(env_id), env_id)]
+    for name in names:
+        row = rows[rows["algorithm"] == name].iloc[0]
+        record = store.read(store.record_path(results_dir, row["trial_id"]))
+        file = policies.path(record.stored_in or results_dir, row["trial_id"])
+        if not file.is_file():
+            raise VideoError(
+                f"{file}: no policy kept for {name}, seed {seed} (run before policies were kept?)"
+            )
+        spec = record.spec
+        label = shown[name].label + (" (true reward)" if row["role"] == "ceiling" else "")
+        result.append(Panel(f"{label} {row['normalized']:.2f}", policies.load(file), env_id, spec))
+    return result
+
+
+def rollout(
+    panel: Panel, env_id: str, size: int, steps: int, episode_seed: int
+) -> list[np.ndarray]:
+    """(H, W, 3) uint8 frames of one deterministic episode, `steps` + 1 of them: the start
+    state and each step after it; past the episode's end its last frame, dimmed."""
+    camera = envs.make(env_id, episode_seed, PixelConfig(size=size, stack=1, grayscale=False))
+    trial = plan(panel.spec) if panel.spec is not None else None
+    seen = trial.pixels if trial is not None else None
+    actor = trial.make_env(episode_seed, training=False) if seen is not None else None
+    try:
+        view, info = camera.reset(seed=episode_seed)
+        obs = actor.reset(seed=episode_seed)[0] if actor is not None else info["state"]
+        frames = [_frame(view, size, obs, seen)]
+        for _ in range(steps):
+            action = panel.policy(observation(obs)[None])[0]
+            view, _, terminated, truncated, info = camera.step(action)
+            obs = actor.step(action)[0] if actor is not None else info["state"]
+            frames.append(_frame(view, size, obs, seen))
+            if terminated or truncated:
+                break
+    finally:
+        camera.close()
+        if actor is not None:
+            actor.close()
+    ended = (frames[-1] * 0.45).astype(np.uint8)
+    return frames + [ended] * (steps + 1 - len(frames))
+
+
+def _frame(view: np.ndarray, size: int, obs: np.ndarray, seen: PixelConfig | None) -> np.ndarray:
+    """The colour view (H, W, 3); for a pixel learner, its newest frame enlarged beside it."""
+    full = view.reshape(3, size, size).transpose(1, 2, 0)
+    if seen is None:
+        return full
+    newest = obs.reshape(seen.shape)[-seen.frame_channels :]
+    small = Image.fromarray(newest[0] if seen.grayscale else newest.transpose(1, 2, 0))
+    learner = np.asarray(small.resize((size, size), Image.NEAREST).convert("RGB"))
+    return np.concatenate([full, learner], axis=1)
+
+
+def compose(titles: list[str], films: list[list[np.ndarray]]) -> list[np.ndarray]:
+    """One (H + title, sum of widths, 3) frame per step: the panels left to right, each under
+    its title."""
+    headers = []
+    for title, film in zip(titles, films, strict=True):
+        header = Image.new("RGB", (film[0].shape[1], TITLE_HEIGHT), "white")
+        ImageDraw.Draw(header).text((4, 3), title, fill="black", font=FONT)
+        headers.append(np.asarray(header))
+    return [
+        np.concatenate(
+            [np.concatenate([h, f], axis=0) for h, f in zip(headers, step, strict=True)], axis=1
+        )
+        for step in zip(*films, strict=True)
+    ]
+
+
+def write(frames: list[np.ndarray], out: str | Path, fps: int = 30) -> Path:
+    """Write `frames` as a GIF or an MP4 (by `out`'s suffix) with imageio."""
+    import imageio.v3 as iio
+
+    out = Path(out)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    if out.suffix == ".gif":
+        iio.imwrite(out, np.stack(frames), duration=1000 / fps, loop=0)
+    else:
+        iio.imwrite(out, np.stack(frames), fps=fps)
+    return out
+
+
+def video(
+    results_dir: str | Path,
+    out: str | Path,
+    env_id: str | None = None,
+    algorithms: list[str] | None = None,
+    n_demos: int | None = None,
+    seed: int = 0,
+    steps: int = 300,
+    size: int = 200,
+    episode_seed: int = EVAL_SEED,
+    fps: int = 30,
+) -> tuple[Path, list[str]]:
+    """Render the chosen panels (`panels`) to `out`; return the path and the panels' titles.
+    `episode_seed` resets every panel's env alike (default: the first evaluation episode of
+    seed 0, as the runner scored it)."""
+    chosen = panels(results_dir, env_id, algorithms, n_demos, seed)
+    films = [rollout(p, p.env_id, size, steps, episode_seed) for p in chosen]
+    titles = [p.title for p in chosen]
+    return write(compose(titles, films), out, fps), titles

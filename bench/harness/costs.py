@@ -1,0 +1,212 @@
+"""What trials cost, learned from the wall times of finished records: one price for the
+runner's dispatch order, its progress bar, `bench run --time-limit` and `--estimate`."""
+
+from __future__ import annotations
+
+import threading
+import time
+from collections.abc import Callable, Iterable
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from bench.harness.types import TrialResult, TrialSpec
+
+
+def observed(spec: TrialSpec) -> str | None:
+    """How a trial sees its env, where that is not the state vector: "pixels", "video-reward",
+    with the frame size where it is not the default ("pixels 32px")."""
+    if spec.observation is None or spec.frame_size is None:
+        return spec.observation
+    return f"{spec.observation} {spec.frame_size}px"
+
+
+def cost_kind(spec: TrialSpec) -> tuple[str, str]:
+    """What a trial's cost per env step depends on: its env as observed, and its algorithm.
+    Frames cost ~100x states per step, so they are another kind: "ENV (pixels)"."""
+    seen = observed(spec)
+    return (spec.env_id if seen is None else f"{spec.env_id} ({seen})"), spec.algorithm
+
+
+@dataclass
+class Tally:
+    """What the finished trials of one kind say about the cost of a like trial, as running
+    sums: a price costs the same however many records there are."""
+
+    trials: int = 0
+    seconds_per_step: float = 0.0
+    """Summed over the trials that trained: wall seconds over budget."""
+    fixed_seconds: float = 0.0
+    """Summed over the trials that trained on no env step (the references, random and
+    expert): they cost their evaluation alone, at any budget."""
+
+    def add(self, wall_time: float, budget: int, trained: bool) -> None:
+        self.trials += 1
+        if trained:  # training time scales with the budget
+            self.seconds_per_step += wall_time / budget
+        else:
+            self.fixed_seconds += wall_time
+
+    def mean_at(self, budget: float) -> float:
+        """The mean over these trials of what each says a like trial of `budget` steps takes."""
+        return (self.seconds_per_step * budget + self.fixed_seconds) / self.trials
+
+
+@dataclass
+class CostModel:
+    """What a trial is expected to cost in wall seconds on one core, learned from finished
+    records. One price for everything that needs one: the runner's dispatch order (longest
+    first, so a run does not end with one long trial on one core while the others idle), the
+    progress bar's time left, `--time-limit` and `--estimate`.
+
+    A record predicts a like trial's cost in proportion to budget (`Tally`); a kind with
+    no record on this env goes by the slowest env measured for its algorithm, seen the same way
+    (rough: envs step at different speeds; a state trial never goes by a pixel one's). Budget
+    alone is a poor guide: at the same budget a BCO trial takes 3x a GAIfO one, and the
+    references (random, expert) take almost nothing. Records made while the machine was busy
+    make a price high.
+    """
+
+    done: dict[tuple[str | None, str, str], Tally] = field(default_factory=dict)
+    """Finished trials' timings by (how the env is seen, env, algorithm)."""
+    lock: threading.Lock = field(default_factory=threading.Lock)  # joblib dispatches from a thread
+    done_before: dict[str, float] = field(default_factory=dict)
+    """Trial id -> the fraction of its budget a snapshot has behind it (`bench.harness.snapshots`):
+    a resumed trial costs only what it has left."""
+
+    @classmethod
+    def of(cls, records: Iterable[TrialResult]) -> CostModel:
+        costs = cls()
+        for record in records:
+            costs.observe(record)
+        return costs
+
+    def observe(self, record: TrialResult) -> None:
+        """Learn from a finished record (failed ones and zero budgets say nothing)."""
+        if record.status == "ok" and record.spec.budget > 0:
+            spec = record.spec
+            with self.lock:
+                tally = self.done.setdefault((observed(spec), spec.env_id, spec.algorithm), Tally())
+                tally.add(record.wall_time, spec.budget, trained=record.env_steps > 0)
+
+    def price(self, spec: TrialSpec) -> tuple[float | None, str]:
+        """Expected wall seconds of `spec` (None: nothing to go by), and what that rests on."""
+        seen = observed(spec)
+        with self.lock:
+            by_env = {  # this env's, if measured, and every other env's seen the same way
+                env: tally.mean_at(spec.budget)
+                for (o, env, algorithm), tally in self.done.items()
+                if o == seen and algorithm == spec.algorithm
+            }
+            here = self.done.get((seen, spec.env_id, spec.algorithm), Tally()).trials
+        if spec.env_id in by_env:
+            return by_env[spec.env_id], f"mean of {here} trials"
+        if by_env:
+            slowest = max(by_env, key=by_env.get)
+            shown = slowest if seen is None else f"{slowest} ({seen})"
+            return by_env[slowest], f"rough: as on {shown}, the slowest measured"
+        return None, f"no finished {spec.algorithm} trial"
+
+    def seconds(self, spec: TrialSpec) -> float | None:
+        """Expected wall seconds of `spec` (None: nothing to go by), less what its snapshot
+        has behind it."""
+        price = self.price(spec)[0]
+        return None if price is None else price * (1 - self.done_before.get(spec.trial_id, 0.0))
+
+    def priority(self, spec: TrialSpec) -> tuple[bool, int, float]:
+        """Higher runs sooner: trials resuming from a snapshot first (finish work begun before
+        starting new work), then unpriced kinds (by budget, to learn their cost), then by
+        expected seconds."""
+        resuming = self.done_before.get(spec.trial_id, 0.0) > 0
+        seconds = self.seconds(spec)
+        return (resuming, 1, float(spec.budget)) if seconds is None else (resuming, 0, seconds)
+
+    def time_left(self, specs: Iterable[TrialSpec], workers: int) -> str:
+        """What `specs` should take on `workers` cores, for a progress bar: "~2.5 h", with
+        "+N unpriced" for trials with nothing to go by."""
+        expected = [self.seconds(spec) for spec in specs]
+        hours = sum(s for s in expected if s is not None) / 3600 / max(workers, 1)
+        text = f"~{hours:.1f} h" if hours >= 1 else f"~{hours * 60:.0f} min"
+        unpriced = sum(s is None for s in expected)
+        return text + (f" +{unpriced} unpriced" if unpriced else "")
+
+
+@dataclass(frozen=True)
+class Estimate:
+    """`bench run --estimate`'s row: one (env, algorithm) of the pending trials."""
+
+    env_id: str
+    """The env id, with its observation in parentheses where it is not states."""
+    algorithm: str
+    trials: int
+    seconds: float | None
+    """Expected wall seconds of one trial on one core (None: nothing to go by)."""
+    basis: str
+    """What the estimate rests on."""
+
+
+def estimate(
+    specs: list[TrialSpec],
+    records: Iterable[TrialResult],
+    done_before: dict[str, float] | None = None,
+) -> list[Estimate]:
+    """Expected cost of `specs` per (env, algorithm) as `CostModel` prices them from `records`
+    (less what their snapshots have behind them, `done_before`): one trial's mean price, and
+    its basis."""
+    costs = CostModel.of(records)
+    costs.done_before = done_before or {}
+    groups: dict[tuple[str, str], list[TrialSpec]] = {}
+    for spec in specs:
+        groups.setdefault(cost_kind(spec), []).append(spec)
+    out = []
+    for (env_id, algorithm), group in groups.items():
+        basis = costs.price(group[0])[1]
+        prices = [costs.seconds(spec) for spec in group]
+        seconds = None if prices[0] is None else float(np.mean(prices))
+        out.append(Estimate(env_id, algorithm, len(group), seconds, basis))
+    return out
+
+
+PAUSE_FLOOR_S = 300.0
+"""Default least time left for which a trial that will not finish is still started under a time
+limit, to pause at the deadline: with less, its start and its snapshot would be most of what it
+did."""
+
+
+@dataclass(frozen=True)
+class TimeLimit:
+    """A wall-clock end for a run, so that a run on a cluster's wall-clock allowance or in a
+    session that ends loses no work: a trial fits if its expected seconds fit in what is left
+    (one with nothing to go by never fits). The runner starts the trials that fit and, where
+    snapshots are on, resumable ones that do not, which pause at the deadline."""
+
+    deadline: float
+    """On `clock`'s scale."""
+    clock: Callable[[], float] = time.monotonic
+    pause_floor_s: float = PAUSE_FLOOR_S
+    """The least time left for which a trial that will not finish is still started."""
+
+    @classmethod
+    def starting_now(
+        cls,
+        limit: float,
+        clock: Callable[[], float] = time.monotonic,
+        pause_floor_s: float = PAUSE_FLOOR_S,
+    ) -> TimeLimit:
+        return cls(clock() + limit, clock, pause_floor_s)
+
+    def fits(self, expected: float | None) -> bool:
+        return expected is not None and self.clock() + expected <= self.deadline
+
+    def left(self) -> float:
+        """Seconds to the deadline (negative past it)."""
+        return self.deadline - self.clock()
+
+    def worth_pausing(self) -> bool:
+        """Whether a trial that will not finish is still worth starting, to pause at the
+        deadline."""
+        return self.left() >= self.pause_floor_s
+
+    def wall_deadline(self) -> float:
+        """The deadline as a `time.time()`, which workers in other processes can read."""
+        return time.time() + self.left()

@@ -1,0 +1,22 @@
+"""Where things live on disk, in one place."""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+REPO_ROOT = Path(__file__).resolve().parents[2]
+EXPERTS_DIR = Path(os.environ.get("IFO_BENCH_EXPERTS", REPO_ROOT / "results" / "experts"))
+"""Shipped experts: <EXPERTS_DIR>/<env_id>/policy.pt and meta.json."""
+CACHE_DIR = Path(os.environ.get("IFO_BENCH_CACHE", REPO_ROOT / ".cache"))
+"""Regenerable files (demonstration pools); safe to delete."""
+
+
+def expert_dir(env_id: str) -> Path:
+    return EXPERTS_DIR / env_id
+
+
+def has_expert(env_id: str) -> bool:
+    return (expert_dir(env_id) / "policy.pt").is_file() and (
+        expert_dir(env_id) / "meta.json"
+    ).is_file()

@@ -1,0 +1,218 @@
+"""Run a suite's trials in parallel: `run_suite` hands each pending trial (`bench.harness.trial`) to
+a joblib worker (loky here, dask on a cluster): the suite's `runner.first` algorithms before the
+rest, and within each trials resuming from a snapshot first, then the longest (`bench.harness.costs`).
+
+The driver prepares each trial's inputs (demonstrations, or the expert) and
+ships them with it, so workers need no files: that is what lets the dask
+backend run trials on other machines. Only the driver writes records, one
+atomic file per finished trial, as results stream back.
+"""
+
+from __future__ import annotations
+
+import itertools
+import os
+import warnings
+from collections.abc import Collection, Iterator
+from dataclasses import dataclass
+from pathlib import Path
+
+import joblib
+from tqdm import tqdm
+
+from bench.harness import policies, registry, snapshots, store
+from bench.harness.costs import CostModel, TimeLimit
+from bench.harness.snapshots import SnapshotPlan
+from bench.harness.trial import demo_pool, plan, run_trial_apart
+from bench.harness.types import TrialSpec
+
+
+@dataclass(frozen=True)
+class RunSummary:
+    done: int
+    failed: int
+    skipped: int
+    """Trials this folder had finished, or found finished in another suite's (`linked`)."""
+    left: int = 0
+    """Pending trials not started: under a time limit, those that would not have fit."""
+    paused: int = 0
+    """Trials stopped at the time limit, each kept as a snapshot to resume from."""
+    linked: int = 0
+    """Of the skipped, trials another suite's folder had finished: linked, not rerun."""
+
+
+def link_finished(specs: list[TrialSpec], results_dir: Path, root: Path | None) -> list[TrialSpec]:
+    """Link into `results_dir` the trials of `specs` that a folder under `root` has finished
+    (the same trial, asked for by another suite: `store.link`); return the others."""
+    if root is None or not specs:
+        return specs
+    found = store.find(root, {s.trial_id for s in specs}, besides=results_dir)
+    for spec in specs:
+        if spec.trial_id in found:
+            label = spec.label or registry.get(spec.algorithm).label
+            store.link(results_dir, spec, label, found[spec.trial_id])
+    return [s for s in specs if s.trial_id not in found]
+
+
+def pending(specs: list[TrialSpec], have: dict[str, str], retry_failed: bool) -> list[TrialSpec]:
+    """Trials without a record in `have` (trial id -> status), and failed ones when `retry_failed`."""
+    keep = []
+    for spec in specs:
+        status = have.get(spec.trial_id)
+        if status is None or (status != "ok" and retry_failed):
+            keep.append(spec)
+    return keep
+
+
+def _jobs(
+    specs: list[TrialSpec],
+    costs: CostModel,
+    tensorboard: str | Path | None = None,
+    first: Collection[str] = (),
+    limit: TimeLimit | None = None,
+    snapshot_plan: SnapshotPlan | None = None,
+    in_workers: bool = False,
+) -> Iterator:
+    """The trials as joblib calls: those of the algorithms `first` (names or labels) before the
+    others; within each group, trials resuming from a snapshot first, then kinds with nothing
+    to go by (to learn their cost), then the dearest, so the last to finish are short. Under a
+    time `limit`, those that still fit as each starts, the dearest first (never an unpriced
+    one); once none does, those that can pause at the limit (`registry.Algorithm.resumable`,
+    with a `snapshot_plan`) while that is worth it (`TimeLimit.worth_pausing`); then none."""
+
+    first = set(first)
+
+    def order(spec: TrialSpec) -> tuple:
+        return (bool({spec.algorithm, spec.shown} & first), *costs.priority(spec))
+
+    def pausable(spec: TrialSpec) -> bool:
+        return snapshot_plan is not None and registry.get(spec.algorithm).resumable
+
+    remaining = list(specs)
+    while remaining:  # a generator: the next trial is chosen (and loaded) as a worker frees up
+        if limit is None:
+            startable = remaining
+        else:
+            startable = [s for s in remaining if limit.fits(costs.seconds(s))]
+            if not startable and limit.worth_pausing():
+                startable = [s for s in remaining if pausable(s)]
+        if not startable:
+            return
+        spec = max(startable, key=order)  # first of equals: suite order
+        remaining.remove(spec)
+        inputs = plan(spec).inputs()
+        yield joblib.delayed(run_trial_apart)(spec, inputs, tensorboard, snapshot_plan, in_workers)
+
+
+def run_suite(
+    specs: list[TrialSpec],
+    results_dir: Path,
+    jobs: int = -1,
+    backend: str = "loky",
+    scheduler: str | None = None,
+    retry_failed: bool = False,
+    progress: bool = True,
+    tensorboard: str | Path | None = None,
+    first: Collection[str] = (),
+    limit: TimeLimit | None = None,
+    priced_by: Path | None = None,
+    snapshot_every: float | None = snapshots.EVERY_S,
+) -> RunSummary:
+    """Run every pending trial in parallel, writing each record as it finishes; with
+    `tensorboard`, each trial's scalars go there live as TensorBoard events. The trials of
+    the algorithms `first` (names or labels) start before the others'. A trial that a folder
+    under `priced_by` has finished (another suite's: the same trial) is linked, not rerun
+    (`store.link`). Trials are priced by the records of every results folder under `priced_by`
+    (default: `results_dir`'s own), read only when something is pending, and by each trial as
+    it finishes. Trials whose algorithm
+    takes snapshots save one every `snapshot_every` seconds under `<results_dir>/.partial/`
+    (None: never) and resume from it after an interruption. Under a time `limit`, a trial starts
+    if it is expected to finish in time or, with snapshots, if it can pause at the limit (see
+    `_jobs`); at the limit every trial in flight that takes snapshots saves one and stops, and
+    the rest are left pending."""
+    records = list(store.scan(results_dir))
+    have = {r.trial_id: store.status_of(r) for r in records}
+    todo = pending(specs, have, retry_failed)
+    unlinked = link_finished(todo, results_dir, priced_by)
+    linked, todo = len(todo) - len(unlinked), unlinked
+    skipped = len(specs) - len(todo)
+    snapshot_plan = None
+    if snapshot_every is not None:
+        stop_at = None if limit is None else limit.wall_deadline()
+        snapshot_plan = SnapshotPlan.of(results_dir, snapshot_every, stop_at)
+        finished = {trial_id for trial_id, status in have.items() if status == "ok"}
+        for trial_id in snapshot_plan.saved() & finished:  # a run killed as a record landed
+            snapshot_plan.discard(trial_id)
+    if not todo:
+        return RunSummary(0, 0, skipped, linked=linked)
+    others = [] if priced_by is None else store.scan_under(priced_by, besides=results_dir)
+    costs = CostModel.of(itertools.chain(records, others))
+    if snapshot_plan is not None:
+        costs.done_before = snapshot_plan.done_before(todo)
+    plans = [plan(s) for s in todo]
+    sources = {
+        (p.spec.env_id, p.spec.dataset or "", p.filmed)
+        for p in plans
+        if p.algorithm.inputs in ("states", "actions")
+    }
+    for env_id, dataset, filmed in sources:  # demo pools made once, before forking
+        demo_pool(env_id, dataset or None, filmed)
+    done = failed = paused = 0
+    bar = tqdm(
+        total=len(todo), desc="trials", unit="trial", disable=not progress, dynamic_ncols=True
+    )
+    client = None
+    try:
+        if backend == "dask":
+            from distributed import Client
+
+            client = Client(scheduler) if scheduler else Client(processes=True)
+            ctx = joblib.parallel_config(backend="dask")
+        else:
+            ctx = joblib.parallel_config(backend=backend, n_jobs=jobs)
+        with ctx, warnings.catch_warnings():
+            # loky replaces workers that grew in memory and says so; no trial is lost by it.
+            warnings.filterwarnings("ignore", message="A worker stopped while some jobs were given")
+            parallel = joblib.Parallel(
+                n_jobs=jobs, return_as="generator_unordered", pre_dispatch="n_jobs"
+            )
+            if client is not None:
+                workers = sum(client.nthreads().values())
+            else:
+                workers = jobs if jobs > 0 else os.cpu_count() or 1
+            unfinished = {spec.trial_id: spec for spec in todo}
+            bar.set_postfix(left=costs.time_left(unfinished.values(), workers))
+            # Each trial runs in a process of its own, forked by the worker (`run_trial_apart`);
+            # loky's workers also die with this driver, so an interrupted run leaves no orphans.
+            in_workers = backend == "loky" and workers > 1
+            trials = _jobs(todo, costs, tensorboard, first, limit, snapshot_plan, in_workers)
+            for result in parallel(trials):
+                del unfinished[result.trial_id]
+                if result.status == "paused":  # no record: its snapshot is what is kept
+                    paused += 1
+                else:
+                    if result.policy is not None:  # before the record: it implies its policy
+                        policies.write(results_dir, result.trial_id, result.policy)
+                    store.write(results_dir, result)
+                    if snapshot_plan is not None:  # a record (ok or failed) ends the trial
+                        snapshot_plan.discard(result.trial_id)
+                    costs.observe(result)
+                if result.status == "ok":
+                    done += 1
+                elif result.status == "failed":
+                    failed += 1
+                    last = (result.traceback or "").strip().splitlines()[-1:] or ["?"]
+                    bar.write(
+                        f"failed: {result.spec.env_id} {result.spec.shown} seed {result.spec.seed}: {last[0]}"
+                    )
+                bar.update(1)
+                # "left" counts the trials in flight in full: an upper bound.
+                left = costs.time_left(unfinished.values(), workers)
+                counts = {"done": done, "failed": failed} | ({"paused": paused} if paused else {})
+                bar.set_postfix(**counts, left=left)
+    finally:
+        bar.close()
+        if client is not None:
+            client.close()
+    left = len(todo) - done - failed - paused
+    return RunSummary(done, failed, skipped, left=left, paused=paused, linked=linked)

@@ -1,0 +1,420 @@
+"""Per-trial records on disk, and the tidy DataFrames read from them.
+
+Layout: `<results_dir>/trials/<trial_id>.json`, one `TrialResult` per file.
+A record appears under its final name only once complete (temp file in the
+same folder, fsync, atomic rename), so a killed run leaves at worst a stray
+`*.tmp`, which readers ignore and the next write or scan removes. A trial is
+finished exactly when its record exists; resuming a suite is skipping those.
+
+A trial is identified by what decides its outcome (`TrialSpec.identity`), not by the suite
+that asked for it, so one that another suite ran already is not run again: its suite's folder
+gets a link instead (`link`), a small file naming where the record is, with this suite's name
+and label for it. Readers see a linked record as the folder's own (`read`).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import dataclasses
+import fcntl
+import json
+import math
+import os
+import time
+import warnings
+from collections.abc import Collection, Iterator
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from bench import atomic
+from bench.errors import BadInput
+from bench.harness import registry
+from bench.harness.types import CurvePoint, TrialResult, TrialSpec
+
+TRIALS = "trials"
+STALE_TMP_SECONDS = 600.0
+"""A *.tmp older than this is a dead writer's; younger ones may belong to a live worker."""
+
+SPEC_COLUMNS = ["suite", "env_id", "algorithm", "n_demos", "seed", "budget", "observation"]
+ROLE_COLUMNS = ["method", "role", "family", "label"]
+"""What the shown algorithm (`algorithm`) is: the registered one it runs, its role, its
+optimizer family and its display label, as its records say (`bench.harness.registry.Algorithm`)."""
+TRIAL_COLUMNS = [
+    *SPEC_COLUMNS,
+    *ROLE_COLUMNS,
+    "inputs",
+    "trial_id",
+    "status",
+    "return",
+    "return_std",
+    "env_steps",
+    "wall_time",
+    "state_distance",
+    "software",
+]
+CURVE_COLUMNS = ["trial_id", *SPEC_COLUMNS, *ROLE_COLUMNS, "inputs", "env_steps", "return"]
+LOG_COLUMNS = ["trial_id", *SPEC_COLUMNS, *ROLE_COLUMNS, "key", "index", "value"]
+
+
+NO_RETURN = "no finite return"
+"""The status `load` gives a record marked ok whose returns are missing, NaN or infinite."""
+LINK = "same_as"
+"""The key of a link file: the record it stands for, relative to the link's folder."""
+LOCK = ".lock"
+"""A results folder's lock file: held (flock) by the one `bench run` writing into it."""
+
+
+class FolderBusy(BadInput, RuntimeError):
+    """A results folder that cannot be written now; the message is one line."""
+
+
+@contextlib.contextmanager
+def claim(results_dir: str | Path) -> Iterator[None]:
+    """Hold `results_dir` for one run: a second run into it is refused (FolderBusy) rather than
+    running every trial twice. The lock is the kernel's (flock), so a killed run leaves none
+    behind. Also where an unwritable folder is found, before any trial trains."""
+    folder = Path(results_dir)
+    try:
+        trials_dir(folder).mkdir(parents=True, exist_ok=True)
+        handle = open(folder / LOCK, "a")  # noqa: SIM115 - held for the whole run
+    except OSError as e:
+        raise FolderBusy(f"cannot write results into {folder}: {e.strerror or e}") from None
+    try:
+        try:
+            fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            raise FolderBusy(
+                f"{folder} is being written by another bench run; wait for it, or use --results"
+            ) from None
+        yield
+    finally:
+        handle.close()
+
+
+def trials_dir(results_dir: str | Path) -> Path:
+    return Path(results_dir) / TRIALS
+
+
+def record_path(results_dir: str | Path, trial_id: str) -> Path:
+    return trials_dir(results_dir) / f"{trial_id}.json"
+
+
+def write(results_dir: str | Path, result: TrialResult) -> Path:
+    """Write `result` atomically to `<results_dir>/trials/<trial_id>.json`; return that path."""
+    folder = trials_dir(results_dir)
+    folder.mkdir(parents=True, exist_ok=True)
+    _remove_stale_tmp(folder)
+    record = dataclasses.asdict(dataclasses.replace(result, policy=None))
+    del record["policy"]  # a file of its own (bench.harness.policies)
+    del record["stored_in"]  # where the reader found it
+    if not record["resumed_at"]:  # trials that ran in one go: records as they always were
+        del record["resumed_at"]
+    text = json.dumps(_finite(record), allow_nan=False, indent=1)
+    return atomic.write_text(record_path(results_dir, result.trial_id), text)
+
+
+def link(results_dir: str | Path, spec: TrialSpec, label: str, record: str | Path) -> Path:
+    """Say in `results_dir` that its suite's trial `spec` is the one recorded at `record`
+    (another folder's, the same trial id): a link file that `read` follows, with `spec`'s
+    suite and label and the `label` figures show it under. Written atomically."""
+    record = Path(record)
+    if record.parent.parent.resolve() == Path(results_dir).resolve():
+        raise ValueError(f"{record} is in {results_dir} already")
+    target = os.path.relpath(record, trials_dir(results_dir))
+    text = json.dumps(
+        {LINK: target, "suite": spec.suite, "spec_label": spec.label, "label": label}, indent=1
+    )
+    return atomic.write_text(record_path(results_dir, spec.trial_id), text)
+
+
+SPEC_TYPES = {
+    "suite": str,
+    "env_id": str,
+    "algorithm": str,
+    "n_demos": int,
+    "seed": int,
+    "budget": int,
+    "eval_episodes": int,
+    "hyperparams": dict,
+}
+RECORD_TYPES = {"status": str, "returns": list, "curve": list, "env_steps": int, "wall_time": float}
+
+
+def _check_types(raw: Any) -> None:
+    """Raise ValueError naming the first field of a record that has the wrong type: a record
+    edited by hand, or by a broken writer, is left out (`scan`) rather than trusted."""
+
+    def check(where: str, value: Any, kind: type) -> None:
+        if kind is float and value is None:
+            return  # a non-finite number, written as null (`_finite`)
+        number = kind in (int, float) and not isinstance(value, bool)
+        wanted = (int, float) if kind is float else kind
+        if not (isinstance(value, wanted) and (number or kind not in (int, float))):
+            raise ValueError(f"{where} is {value!r}, not {kind.__name__}")
+
+    if not isinstance(raw, dict) or not isinstance(raw.get("spec"), dict):
+        raise ValueError("not a record: no spec")
+    for key, kind in SPEC_TYPES.items():
+        check(f"spec.{key}", raw["spec"].get(key), kind)
+    for key, kind in RECORD_TYPES.items():
+        check(key, raw.get(key), kind)
+    for i, r in enumerate(raw["returns"]):
+        check(f"returns[{i}]", r, float)
+
+
+def copy_folder(results_dir: str | Path, to: str | Path) -> Path:
+    """Copy the records of `results_dir` into `to` (a new folder), each a record of its own: a
+    link is replaced by the record it names, as this suite's. Links name their records
+    relative to their folder, so a folder taken out of its parent (a copy elsewhere, an
+    archive) must be copied this way to stay readable."""
+    to = Path(to)
+    if to.exists():
+        raise FileExistsError(f"{to} exists already")
+    for result in scan(results_dir):
+        write(to, dataclasses.replace(result, stored_in=None))
+    return to
+
+
+def real_path(path: str | Path) -> Path:
+    """The record file that `path` stands for: itself, or the one a link names."""
+    path = Path(path)
+    raw = json.loads(path.read_text())
+    if isinstance(raw, dict) and LINK in raw:
+        return Path(os.path.normpath(path.parent / raw[LINK]))
+    return path
+
+
+def read(path: str | Path) -> TrialResult:
+    """Rebuild a TrialResult (with its TrialSpec and CurvePoints) from a record, or from the
+    record a link names, as the linking suite's (its name and label; `stored_in` the folder
+    that holds it)."""
+    raw = json.loads(Path(path).read_text())
+    if LINK in raw:
+        target = Path(os.path.normpath(Path(path).parent / raw[LINK]))
+        if LINK in json.loads(target.read_text()):
+            raise ValueError(f"{path} links to {target}, itself a link")
+        result = read(target)
+        spec = dataclasses.replace(result.spec, suite=raw["suite"], label=raw["spec_label"])
+        folder = str(target.parent.parent)
+        return dataclasses.replace(result, spec=spec, label=raw["label"], stored_in=folder)
+    _check_types(raw)
+    spec = TrialSpec(**raw["spec"])
+    role, family, label = raw.get("role"), raw.get("family"), raw.get("label")
+    if role is None:  # a record from before records said it: what the registry says now
+        role, family, label = registry.describe(spec.algorithm)
+        label = spec.label or label
+    return TrialResult(
+        spec=spec,
+        status=raw["status"],
+        returns=[_float(r) for r in raw["returns"]],
+        curve=[CurvePoint(p["env_steps"], _float(p["mean_return"])) for p in raw["curve"]],
+        env_steps=raw["env_steps"],
+        wall_time=_float(raw["wall_time"]),
+        versions=raw["versions"],
+        traceback=raw.get("traceback"),
+        logs={k: [_float(v) for v in vs] for k, vs in raw.get("logs", {}).items()},
+        inputs=raw.get("inputs"),
+        reference=raw.get("reference"),
+        state_distance=raw.get("state_distance"),
+        role=role,
+        family=family,
+        label=label,
+        resumed_at=raw.get("resumed_at", []),
+    )
+
+
+def load(results_dir: str | Path) -> pd.DataFrame:
+    """One row per trial: TRIAL_COLUMNS; `return` is the mean evaluation return (NaN if failed)."""
+    rows = [_trial_row(r) for r in scan(results_dir)]
+    return _frame(rows, TRIAL_COLUMNS, ["env_id", "algorithm", "n_demos", "seed", "trial_id"])
+
+
+def load_curves(results_dir: str | Path) -> pd.DataFrame:
+    """One row per evaluation point of every ok trial: CURVE_COLUMNS.
+
+    Failed trials are left out: their curves stop early, and mixing them in
+    would change the number of seeds behind each point along the curve.
+    """
+    rows = [
+        {**_spec_row(r), "inputs": r.inputs, "env_steps": p.env_steps, "return": p.mean_return}
+        for r in scan(results_dir)
+        if r.status == "ok"
+        for p in r.curve
+    ]
+    return _frame(rows, CURVE_COLUMNS, ["env_id", "algorithm", "n_demos", "seed", "env_steps"])
+
+
+def load_logs(results_dir: str | Path) -> pd.DataFrame:
+    """Algorithm diagnostics, long format: LOG_COLUMNS; `index` counts entries per key."""
+    rows = [
+        {**_spec_row(r), "key": key, "index": i, "value": v}
+        for r in scan(results_dir)
+        for key, values in r.logs.items()
+        for i, v in enumerate(values)
+    ]
+    return _frame(rows, LOG_COLUMNS, ["env_id", "algorithm", "n_demos", "seed", "key", "index"])
+
+
+def suite_dirs(root: str | Path) -> list[Path]:
+    """`find_result_dirs(root)`, or FileNotFoundError (one line) when there is nothing to read."""
+    root = Path(root)
+    if not root.is_dir():
+        raise FileNotFoundError(f"no results directory {root}")
+    dirs = find_result_dirs(root)
+    if not dirs:
+        raise FileNotFoundError(f"no trial records under {root}")
+    return dirs
+
+
+def find_result_dirs(root: str | Path) -> list[Path]:
+    """Every folder under `root` (itself included) that holds a trials/ folder; experts/ and
+    hidden folders skipped. Linked folders are followed (a suite's folder linked in from
+    scratch space is still seen), each real folder once, so a link loop ends."""
+    if Path(root).name == "experts":
+        return []
+    found, seen = [], set()
+    for folder, subdirs, _ in os.walk(root, followlinks=True):
+        real = os.path.realpath(folder)
+        if real in seen:
+            subdirs[:] = []
+            continue
+        seen.add(real)
+        if TRIALS in subdirs:
+            found.append(Path(folder))
+        # Prune: never descend into expert folders, trials/ (records only) or hidden folders
+        # (.venv, .git: a run with `--results NAME` prices by every record under `.`).
+        subdirs[:] = sorted(
+            d for d in subdirs if d not in ("experts", TRIALS) and not d.startswith(".")
+        )
+    return sorted(found)
+
+
+# ---------------------------------------------------------------- helpers
+
+
+def scan_under(root: str | Path, besides: str | Path | None = None) -> Iterator[TrialResult]:
+    """`scan` of every results folder under `root` (`find_result_dirs`), but `besides` (a
+    folder the caller has read already)."""
+    skip = None if besides is None else os.path.realpath(besides)
+    for results_dir in find_result_dirs(root):
+        if os.path.realpath(results_dir) != skip:
+            yield from scan(results_dir)
+
+
+def find(
+    root: str | Path, ids: Collection[str], besides: str | Path | None = None
+) -> dict[str, Path]:
+    """Where under `root` (but in `besides`) each of `ids` is recorded as finished (ok, with
+    finite returns): trial id -> its record's own file (a link followed). Reads only the files
+    named by those ids."""
+    skip = None if besides is None else os.path.realpath(besides)
+    found: dict[str, Path] = {}
+    for results_dir in find_result_dirs(root):
+        if os.path.realpath(results_dir) == skip:
+            continue
+        for trial_id in sorted(set(ids) - found.keys()):
+            path = record_path(results_dir, trial_id)
+            if not path.is_file():
+                continue
+            try:
+                result = read(path)
+            except (OSError, ValueError, KeyError, TypeError):
+                continue  # a malformed record is `scan`'s to warn about
+            if status_of(result) == "ok" and result.trial_id == trial_id:
+                found[trial_id] = real_path(path)
+    return found
+
+
+def scan(results_dir: str | Path) -> Iterator[TrialResult]:
+    """Every readable record, in file-name order; unreadable ones are warned about and skipped."""
+    folder = trials_dir(results_dir)
+    if not folder.is_dir():
+        return
+    _remove_stale_tmp(folder)
+    for path in sorted(folder.glob("*.json")):
+        try:
+            result = read(path)
+        except (OSError, ValueError, KeyError, TypeError) as e:  # JSONDecodeError is a ValueError
+            warnings.warn(f"skipping unreadable trial record {path}: {e!r}", stacklevel=2)
+            continue
+        if result.trial_id != path.stem:
+            # A renamed or edited file: which trial it records cannot be trusted.
+            warnings.warn(
+                f"skipping {path}: its spec hashes to {result.trial_id}, not to its file name"
+                " (renamed or edited? scripts/migrate_records.py renames records to their ids)",
+                stacklevel=2,
+            )
+            continue
+        yield result
+
+
+def _spec_row(r: TrialResult) -> dict[str, Any]:
+    """The spec's columns and ROLE_COLUMNS; `algorithm` is the name shown (a labelled
+    variant's label) and `method` the registered algorithm it runs."""
+    row = {"trial_id": r.trial_id, **{c: getattr(r.spec, c) for c in SPEC_COLUMNS}}
+    shown = {"algorithm": r.spec.shown, "method": r.spec.algorithm}
+    described = {"role": r.role or "learner", "family": r.family, "label": r.label or r.spec.shown}
+    return row | shown | described | {"observation": r.spec.observation or "states"}
+
+
+def status_of(r: TrialResult) -> str:
+    """The record's status, but NO_RETURN for an "ok" one without a finite return (edited, or
+    from a broken writer): no score, listed and retried with the failed ones."""
+    returns = np.asarray(r.returns, dtype=float)
+    finite = returns.size > 0 and bool(np.isfinite(returns).all())
+    return NO_RETURN if r.status == "ok" and not finite else r.status
+
+
+def _trial_row(r: TrialResult) -> dict[str, Any]:
+    status = status_of(r)
+    ok = status == "ok"
+    returns = np.asarray(r.returns, dtype=float)
+    return {
+        **_spec_row(r),
+        "inputs": r.inputs,
+        "status": status,
+        "return": float(returns.mean()) if ok else math.nan,
+        "return_std": float(returns.std()) if ok else math.nan,
+        "env_steps": r.env_steps,
+        "wall_time": r.wall_time,
+        "state_distance": _float(r.state_distance) if ok else math.nan,
+        "software": software(r.versions),
+    }
+
+
+def software(versions: dict[str, str]) -> str:
+    """The package versions a trial ran with, as one label: "gymnasium 1.4.0, pybullet ..."."""
+    return ", ".join(f"{pkg} {v}" for pkg, v in sorted(versions.items()))
+
+
+def _frame(rows: list[dict], columns: list[str], sort_by: list[str]) -> pd.DataFrame:
+    frame = pd.DataFrame(rows, columns=columns)
+    return frame.sort_values(sort_by, kind="stable", ignore_index=True)
+
+
+def _finite(value: Any) -> Any:
+    """Replace NaN and inf by None, all the way down: JSON has no NaN."""
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    if isinstance(value, dict):
+        return {k: _finite(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [_finite(v) for v in value]
+    if isinstance(value, np.ndarray | np.generic):
+        return _finite(value.tolist())  # runners may hand over numpy returns
+    return value
+
+
+def _float(value: Any) -> float:
+    return math.nan if value is None else float(value)
+
+
+def _remove_stale_tmp(folder: Path) -> None:
+    cutoff = time.time() - STALE_TMP_SECONDS
+    for tmp in folder.glob("*.tmp"):
+        with contextlib.suppress(OSError):  # another process may clean it first
+            if tmp.stat().st_mtime < cutoff:
+                tmp.unlink()

@@ -1,0 +1,172 @@
+"""The checks a suite passes at load, one line each naming the key path, what was expected and
+what was found; and the look-ups that need the registry, env ids, experts and datasets."""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+from typing import Any
+
+from bench import validate
+from bench.harness import registry
+from bench.harness.suite import resolve
+from bench.harness.suite.types import AlgorithmEntry, EnvSettings
+from bench.harness.types import TrialSpec
+from bench.validate import show
+
+
+class Invalid(Exception):
+    """One problem at one key path; load_suite adds the file name."""
+
+    def __init__(self, key: str, message: str) -> None:
+        super().__init__(f"{key}: {message}" if key else message)
+
+
+def joined(key: str, field: str) -> str:
+    """A key path and a field under it: envs.X + budget, demos + [1]; either may be empty."""
+    if not (key and field):
+        return key or field
+    return f"{key}{'' if field.startswith('[') else '.'}{field}"
+
+
+def at_setting(key: str, error: validate.SettingError) -> Invalid:
+    """A setting's problem (`bench.validate`) at its path under `key`."""
+    return Invalid(joined(key, error.field), error.message)
+
+
+def check_budgets(trials: list[TrialSpec]) -> None:
+    """Each trial's budget covers what its algorithm needs before it can learn anything (one
+    TRPO batch, say), asked of the algorithm (`register(..., min_budget=)`): a trial that
+    cannot train is refused at load, not recorded as failed an hour into the run."""
+    asked: set[tuple[str, int, str]] = set()
+    for spec in trials:
+        case = (spec.algorithm, spec.budget, json.dumps(spec.hyperparams, sort_keys=True))
+        algo = registry.get(spec.algorithm)
+        if algo.min_budget is None or case in asked:
+            continue  # seeds and demo counts of one setting need the same
+        asked.add(case)
+        need = algo.min_budget(algo.make_config(spec.hyperparams))
+        if spec.budget < need:
+            raise Invalid(
+                f"envs.{spec.env_id}.budget",
+                f"{spec.budget} env steps are fewer than {spec.shown} needs to train ({need})",
+            )
+
+
+def check_video_learners(env: EnvSettings, algorithms: tuple) -> None:
+    """pixels: every algorithm learns from frames, except the expert, which acts on the
+    simulator state in either setting (its return is the task's, whatever the learners see).
+    video-reward: every algorithm given demonstrations can imitate video; the others act on
+    states as always."""
+    if env.observation == "pixels":
+        can = lambda a: a.pixels or a.inputs == "expert"  # noqa: E731
+        able = sorted(n for n, a in registry.all_algorithms().items() if a.pixels)
+        what = "learn from pixels"
+    else:
+        can = lambda a: a.video_reward or a.inputs not in ("states", "actions")  # noqa: E731
+        able = sorted(n for n, a in registry.all_algorithms().items() if a.video_reward)
+        what = "imitate video"
+    blind = [a.shown for a in algorithms if not can(registry.get(a.name))]
+    if blind:
+        raise Invalid(
+            f"envs.{env.env_id}.observation",
+            f"{', '.join(blind)} cannot {what} (those that can: {', '.join(able) or 'none'})",
+        )
+
+
+def check_dataset(env: EnvSettings, most_demos: int, algorithms: tuple) -> None:
+    """The dataset opens, comes from this env, has enough episodes, and has actions if an
+    algorithm needs them."""
+    from bench.harness import minari_io
+
+    key = f"envs.{env.env_id}.dataset"
+    try:
+        dataset = minari_io.open_dataset(env.dataset)
+        minari_io.check_env(dataset, env.dataset, env.env_id)
+    except minari_io.DatasetError as e:
+        raise Invalid(key, str(e)) from None
+    if dataset.total_episodes < most_demos:
+        raise Invalid(
+            key,
+            f"{env.dataset} has {dataset.total_episodes} episodes, fewer than the"
+            f" {most_demos} demonstrations asked for",
+        )
+    needs_actions = [a.shown for a in algorithms if registry.get(a.name).inputs == "actions"]
+    if needs_actions and not minari_io.has_actions(dataset):
+        raise Invalid(
+            key,
+            f"{env.dataset} records no actions (NaN), which {', '.join(needs_actions)} needs;"
+            " imitation from observation algorithms run without them",
+        )
+
+
+def check_env_hyperparams(env: EnvSettings, algorithms: tuple[AlgorithmEntry, ...]) -> None:
+    """Each of the env's hyperparams is a setting of some algorithm of the suite, of its type:
+    a typo would otherwise reach no algorithm and change nothing, silently."""
+    key = f"envs.{env.env_id}.hyperparams"
+    configs = [registry.get(a.name).config for a in algorithms]
+    for name, value in env.hyperparams.items():
+        having = [config for config in configs if name in resolve.fields_of(config)]
+        if not having:
+            shown = ", ".join(sorted({a.shown for a in algorithms}))
+            raise Invalid(f"{key}.{name}", f"no algorithm of the suite has this setting ({shown})")
+        for config in having:
+            try:
+                validate.check_types(config, {name: value})
+            except validate.SettingError as e:
+                raise at_setting(key, e) from None
+
+
+def check_env_settings(env: EnvSettings, algorithms: tuple[AlgorithmEntry, ...]) -> None:
+    """Each algorithm's config still builds with the env's settings under its own."""
+    for entry in algorithms:
+        try:
+            resolve.on_env(env, entry)
+        except (TypeError, ValueError) as e:
+            where = f"envs.{env.env_id}.{'hyperparams' if env.hyperparams else 'trpo'}"
+            raise Invalid(where, f"{entry.shown}: {one_line(str(e))}") from None
+
+
+def check_plain(values: dict, key: str) -> None:
+    for name, value in values.items():
+        try:
+            json.dumps(value, allow_nan=False)  # they go into TrialSpec, which is hashed as JSON
+        except (TypeError, ValueError):
+            raise Invalid(
+                f"{key}.{name}",
+                f"expected a plain value (number, string, list), got {show(value)}",
+            ) from None
+
+
+def check_hyperparams(algo: registry.Algorithm, overrides: dict, key: str) -> Any:
+    """The algorithm's config built with `overrides`, or Invalid at `key`."""
+    check_plain(overrides, key)
+    try:
+        return algo.make_config(overrides)
+    except validate.SettingError as e:
+        raise at_setting(key, e) from None
+    except (TypeError, ValueError) as e:
+        raise Invalid(key, one_line(str(e))) from None
+
+
+def check_config(config: type, values: dict, key: str) -> None:
+    """`values` are settings of the dataclass `config`, of their types, and it builds."""
+    try:
+        validate.check_types(config, values)
+        config(**values)
+    except validate.SettingError as e:
+        raise at_setting(key, e) from None
+    except (TypeError, ValueError) as e:
+        raise Invalid(key, one_line(str(e))) from None
+
+
+def scalar_type(f: dataclasses.Field) -> type | None:
+    """The type of a field's scalar default; YAML typos (1e-3 is a string) fail here, not mid-run."""
+    if f.default is dataclasses.MISSING:
+        return None
+    kind = type(f.default)
+    return kind if kind in (bool, int, float, str) else None
+
+
+def one_line(text: str) -> str:
+    return " ".join(text.split())

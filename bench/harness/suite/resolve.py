@@ -1,0 +1,37 @@
+"""An algorithm's settings on one env, resolved once: its config's defaults, the env's settings
+that apply to it, and the suite entry's own overrides, as the plain JSON a trial's id hashes."""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+from typing import Any
+
+from bench.harness import registry
+from bench.harness.suite.types import AlgorithmEntry, EnvSettings
+from bench.rl.trpo import TRPOConfig
+
+
+def fields_of(config: type) -> dict[str, dataclasses.Field]:
+    """A config dataclass's fields by name."""
+    return {f.name: f for f in dataclasses.fields(config)}
+
+
+def as_json(config: Any) -> dict[str, Any]:
+    """A built config, defaults included, as JSON: a changed default is a new trial."""
+    return json.loads(json.dumps(dataclasses.asdict(config)))
+
+
+def on_env(env: EnvSettings, entry: AlgorithmEntry) -> dict[str, Any]:
+    """The entry's resolved config on this env: the env's settings that apply to it under the
+    entry's overrides (the env's TRPO settings if it is a TRPO learner, then the env's
+    hyperparams that its config has). A fresh dict: specs outlive the suite. Raises what the
+    config raises (TypeError, ValueError) where the env's settings do not fit it."""
+    algorithm = registry.get(entry.name)
+    known = fields_of(algorithm.config)
+    from_env = {k: v for k, v in env.hyperparams.items() if k in known}
+    if env.trpo and issubclass(algorithm.config, TRPOConfig):
+        from_env = {**env.trpo, **from_env}
+    if not from_env:
+        return dict(entry.hyperparams)
+    return as_json(algorithm.make_config({**from_env, **entry.overrides}))

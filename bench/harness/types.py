@@ -1,0 +1,123 @@
+"""The harness's data types: a trial's spec and its record. Frozen.
+
+Demonstrations, which algorithms get, are `bench.imitation.data`'s.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+from dataclasses import asdict, dataclass, field
+from typing import Any
+
+CURVE_POINTS = 10
+"""Learning-curve evaluations per trial unless its suite asks otherwise (at most; when the
+algorithm offers checkpoints)."""
+
+
+@dataclass(frozen=True)
+class TrialSpec:
+    """Everything that determines one trial, and the suite that asked for it. Its id hashes
+    what decides its outcome (`identity`): everything but the suite's name and label, so the
+    same trial asked for by two suites is one record."""
+
+    suite: str
+    env_id: str
+    algorithm: str
+    n_demos: int
+    seed: int
+    budget: int
+    """Env steps the algorithm may take while training."""
+    eval_episodes: int
+    hyperparams: dict[str, Any] = field(default_factory=dict)
+    """Overrides of the algorithm's config dataclass; JSON-serializable."""
+    label: str | None = None
+    """A variant's name in a suite with several of one algorithm (None: `algorithm`)."""
+    dataset: str | None = None
+    """A Minari dataset (folder or id) the demonstrations come from (None: the shipped
+    expert's pool)."""
+    observation: str | None = None
+    """What the learner observes: None for the env's state vector, "pixels" for stacked
+    rendered frames (`bench.harness.pixels`), "video-reward" for states while its reward judges
+    frames; demonstrations are then the expert's video."""
+    frame_size: int | None = None
+    """Side in pixels of the frames of a pixel or video-reward trial (None: PixelConfig's 64)."""
+    curve_points: int = CURVE_POINTS
+    """Learning-curve evaluations during training."""
+
+    def identity(self) -> str:
+        """What decides the trial's outcome, as canonical JSON: every field but `suite` and
+        `label`, which only say who asked for it and what it is called there."""
+        spec = asdict(self)
+        del spec["suite"], spec["label"]
+        return json.dumps(spec, sort_keys=True, separators=(",", ":"))
+
+    @property
+    def shown(self) -> str:
+        """The name records are grouped, plotted and compared by."""
+        return self.label or self.algorithm
+
+    @property
+    def trial_id(self) -> str:
+        return hashlib.sha256(self.identity().encode()).hexdigest()[:16]
+
+    def __hash__(self) -> int:
+        return hash(self.identity())
+
+
+@dataclass(frozen=True)
+class CurvePoint:
+    env_steps: int
+    mean_return: float
+
+
+@dataclass(frozen=True)
+class TrialResult:
+    """One finished trial, as written to disk."""
+
+    spec: TrialSpec
+    status: str
+    """"ok" or "failed"; "paused" for a trial stopped at its run's time limit, which the
+    runner does not write (its snapshot is what is kept)."""
+    returns: list[float]
+    """Undiscounted return of each evaluation episode (empty when failed)."""
+    curve: list[CurvePoint]
+    """Evaluation return against env steps used so far."""
+    env_steps: int
+    wall_time: float
+    """Seconds from start of training to end of final evaluation."""
+    versions: dict[str, str]
+    traceback: str | None = None
+    logs: dict[str, list[float]] = field(default_factory=dict)
+    """Algorithm diagnostics over training, e.g. discriminator loss and accuracy."""
+    inputs: str | None = None
+    """What the algorithm was given: "none", "states", "actions" or "expert" (its registry
+    entry's `inputs`), so figures can mark action users from the records alone."""
+    reference: str | None = None
+    """Where an expert record's returns come from when no shipped expert was run (a dataset's
+    demonstrator: its ref_max_score or its episodes' returns)."""
+    state_distance: float | None = None
+    """How far the evaluation episodes' states lie from the expert's pool
+    (`bench.harness.state_match.state_distance`: 0 = distributed alike); None from pixels, for a
+    dataset's demonstrator, and in records written before it was measured."""
+    stored_in: str | None = None
+    """Where a trial another suite ran is recorded, for a suite that asks for it too: that
+    suite's results folder, which holds its record and policy (`bench.harness.store.link`); None where
+    the record is this folder's own. Said by the reader, never written into a record."""
+    role: str | None = None
+    """What its algorithm is in a comparison (`bench.harness.registry.Role`), as registered when it ran."""
+    family: str | None = None
+    """The optimizer family whose controls it is read against (`bench.harness.registry.Algorithm`)."""
+    label: str | None = None
+    """Its name in figures and reports: a variant's own (`TrialSpec.label`), else its
+    algorithm's registered label ("GAIfO")."""
+    resumed_at: list[int] = field(default_factory=list)
+    """Env steps at which the trial was resumed from a snapshot (`bench.harness.snapshots`) after an
+    interruption; empty where it trained in one go."""
+    policy: bytes | None = field(default=None, repr=False)
+    """The final policy's file (`bench.harness.policies`), on its way from the worker to the driver,
+    which writes it beside the record; never part of the record itself."""
+
+    @property
+    def trial_id(self) -> str:
+        return self.spec.trial_id

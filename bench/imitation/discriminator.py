@@ -1,0 +1,171 @@
+"""One discriminator for every adversarial learner, on-policy or off: its settings
+(`DiscriminatorConfig`), its network (`Discriminator`, over any features of a transition), one
+loss (`discriminator_loss`) and what is logged of it, the rewards it gives, and the expert's side
+of its data (`expert_transitions`).
+
+D outputs the logit of P(expert | transition). Training is binary cross-entropy with the expert
+labelled 1, plus a gradient penalty on interpolates that keeps D smooth, so the policy's reward
+has a slope to climb even where D tells the two sides apart.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+import torch
+import torch.nn.functional as F
+from torch import nn
+
+from bench.rl import absorbing
+from bench.rl.absorbing import Transitions
+from bench.rl.networks import ConvTrunk, ObsShape, PixelScale, RunningNorm, mlp, shape_of
+from bench.validate import above, at_least
+
+REWARDS: dict[str, Callable[[torch.Tensor], torch.Tensor]] = {
+    "-log(1-D)": lambda logit: F.softplus(logit),  # -log(1 - sigmoid(x)) = softplus(x) > 0
+    "log D": lambda logit: -F.softplus(-logit),  # log sigmoid(x) < 0
+    "log D - log(1-D)": lambda logit: logit,  # the logit itself, either sign
+}
+
+
+@dataclass
+class DiscriminatorConfig:
+    """D's settings, the same fields and checks for every adversarial learner whatever its
+    optimizer (TRPO's GAIfO and GAIL, SAC's, OPOLO's TD3): one D, one training step
+    (`discriminator_loss`)."""
+
+    disc_hidden: tuple[int, ...] = (100, 100)
+    """Hidden layer sizes of the discriminator MLP (tanh)."""
+    disc_lr: float = 3e-4
+    """Adam learning rate of the discriminator."""
+    grad_penalty: float = 10.0
+    """Weight of a gradient penalty on expert/policy interpolates (smooths D); 0 disables it."""
+    gp_target: float = 0.0
+    """Gradient norm the penalty pulls towards: 0 (zero-centred) or 1 (WGAN-GP style)."""
+    disc_entropy: float = 0.0
+    """Weight of a bonus on the entropy of D's predictions, which keeps D from certainty
+    (OPOLO's 0.001); 0: none."""
+
+    def __post_init__(self) -> None:
+        self.disc_hidden = tuple(self.disc_hidden)  # YAML gives lists
+        above(self, 0, "disc_lr")
+        at_least(self, 0, "grad_penalty", "gp_target", "disc_entropy")
+
+
+def discriminator_loss(
+    net: nn.Module,
+    policy: torch.Tensor,
+    expert: torch.Tensor,
+    cfg: DiscriminatorConfig,
+    mix_weights: Callable[[int], torch.Tensor],
+) -> tuple[torch.Tensor, dict[str, torch.Tensor]]:
+    """D's loss on one minibatch of each side, (N, F) feature rows of the policy's and the
+    expert's, and its parts: binary cross-entropy with the expert labelled 1, less
+    `disc_entropy` times the entropy of D's predictions, plus `grad_penalty` times
+    (||grad D|| - gp_target)^2 on random interpolates (`mix_weights(N)` -> (N, 1) in [0, 1),
+    drawn only where there is a penalty). `net` maps rows to (N, 1) logits."""
+    logit_p, logit_e = net(policy).squeeze(-1), net(expert).squeeze(-1)
+    bce = F.binary_cross_entropy_with_logits(
+        logit_p, torch.zeros_like(logit_p)
+    ) + F.binary_cross_entropy_with_logits(logit_e, torch.ones_like(logit_e))
+    loss = bce
+    if cfg.disc_entropy > 0:
+        logits = torch.cat([logit_p, logit_e])
+        entropy = -(
+            torch.sigmoid(logits) * F.logsigmoid(logits)
+            + torch.sigmoid(-logits) * F.logsigmoid(-logits)
+        ).mean()
+        loss = loss - cfg.disc_entropy * entropy
+    penalty = torch.zeros(())
+    if cfg.grad_penalty > 0:
+        # On normalized inputs: raw PyBullet features with tiny variance would make the
+        # gradient w.r.t. raw inputs huge and the penalty would swamp the classifier.
+        alpha = mix_weights(len(policy))
+        mix = (alpha * expert + (1 - alpha) * policy).detach().requires_grad_(True)
+        grad = torch.autograd.grad(net(mix).sum(), mix, create_graph=True)[0]
+        penalty = (grad.norm(dim=1) - cfg.gp_target).square().mean()
+        loss = loss + cfg.grad_penalty * penalty
+    return loss, {"bce": bce, "penalty": penalty, "logit_p": logit_p, "logit_e": logit_e}
+
+
+def discriminator_log(parts: dict[str, torch.Tensor]) -> dict[str, float]:
+    """What every adversarial learner logs of D's last step."""
+    return {
+        "disc_loss": parts["bce"].item(),
+        "disc_acc_policy": (parts["logit_p"] < 0).float().mean().item(),
+        "disc_acc_expert": (parts["logit_e"] > 0).float().mean().item(),
+    }
+
+
+Features = Callable[[torch.Tensor, torch.Tensor, torch.Tensor], torch.Tensor]
+"""features(s, a, s') -> (N, F) D input, from normalized observations (N, O+1 with the absorbing
+flag last, or N, O without absorbing states), (N, A) actions and next observations like s.
+GAIfO uses (s, s'), GAIL (s, a)."""
+
+
+class Discriminator(nn.Module):
+    """Logit of P(expert | transition), of observations scaled by `norm` (`disc_normalizer`).
+
+    From frames, each observation first goes through D's own convolutional trunk, and D judges
+    (and its gradient penalty smooths) the features of s and s' like state vectors.
+    """
+
+    def __init__(
+        self,
+        norm: RunningNorm | PixelScale,
+        features: Features,
+        obs_shape: ObsShape,
+        act_dim: int,
+        hidden: tuple[int, ...],
+        with_absorbing: bool,
+    ) -> None:
+        """`obs_shape`: (O,) or O for state vectors, (C, H, W) for flat frames."""
+        super().__init__()
+        self.norm, self.features, self.with_absorbing = norm, features, with_absorbing
+        shape = shape_of(obs_shape)
+        self.encoder = ConvTrunk(shape) if len(shape) == 3 else nn.Identity()
+        zeros = torch.zeros(1, int(np.prod(shape)))
+        state = self.state(zeros, torch.zeros(1, dtype=torch.bool))
+        in_dim = features(state, torch.zeros(1, act_dim), state).shape[1]
+        self.net = mlp([in_dim, *hidden, 1])
+
+    def state(self, obs: torch.Tensor, is_absorbing: torch.Tensor) -> torch.Tensor:
+        """(N, F+1): the normalized observation (its trunk's features, from frames) and the
+        absorbing flag; the absorbing state is (0, ..., 0, FLAG). (N, F), the observation
+        alone, without absorbing states."""
+        seen = self.encoder(self.norm(obs))
+        if not self.with_absorbing:
+            return seen
+        flag = is_absorbing.float().unsqueeze(1)
+        return torch.cat([seen * (1.0 - flag), flag * absorbing.FLAG], dim=1)
+
+    def inputs(self, x: Transitions) -> torch.Tensor:
+        """The (N, F) feature rows D classifies."""
+        return self.features(
+            self.state(x.obs, x.obs_absorbing), x.actions, self.state(x.next_obs, x.next_absorbing)
+        )
+
+    def forward(self, x: Transitions) -> torch.Tensor:
+        return self.net(self.inputs(x)).squeeze(-1)
+
+
+def expert_transitions(
+    observations: tuple[np.ndarray, ...],
+    terminated: tuple[bool, ...],
+    actions: tuple[np.ndarray, ...] | None,
+    with_absorbing: bool,
+    gamma: float,
+) -> Transitions:
+    """The demonstrations' transitions, with the absorbing tails of the episodes that terminated.
+
+    observations: (T_i + 1, O) per episode; actions: (T_i, A) per episode, or None (state-only:
+    the actions field then has width 0).
+    """
+    acts = actions or tuple(np.zeros((len(o) - 1, 0), np.float32) for o in observations)
+    parts = [Transitions.real(o[:-1], a, o[1:]) for o, a in zip(observations, acts, strict=True)]
+    finals = [o[-1] for o, t in zip(observations, terminated, strict=True) if t]
+    if with_absorbing and finals:
+        parts.append(absorbing.tails(np.stack(finals), acts[0].shape[1], gamma))
+    return Transitions.concat(parts)
