@@ -37,6 +37,7 @@ from bench.imitation.discriminator import (
     discriminator_loss,
     expert_transitions,
 )
+from bench.imitation.rewards import batch_rewards, batch_transitions
 from bench.rl import absorbing
 from bench.rl.absorbing import Transitions
 from bench.rl.networks import (
@@ -147,13 +148,6 @@ def discriminator_step(
     return dict([loss, ("disc_grad_penalty", parts["penalty"].item()), acc_policy, acc_expert])
 
 
-def batch_transitions(batch: Batch, task: Task) -> Transitions:
-    """The batch's (T*E) transitions as D sees them: actions clipped to the bounds as the env
-    applied them; what a reward judges of the observations (`Batch.judged`)."""
-    actions = np.clip(batch.flat("actions"), task.action_low, task.action_high)
-    return Transitions.real(batch.judged("obs"), actions, batch.judged("next_obs"))
-
-
 def train_adversarial(
     *,
     task: Task,
@@ -188,13 +182,10 @@ def train_adversarial(
     )
 
     def reward_fn(batch: Batch) -> Rewards:
-        real = batch_transitions(batch, task)
-        terminated = batch.flat("terminated")
-        n_real, n_term = len(real), int(terminated.sum())
-        parts = [real]
-        if cfg.absorbing and n_term:
-            parts.append(absorbing.tails(real.next_obs[terminated], task.act_dim, cfg.gamma))
-        policy_x = Transitions.concat(parts).map(torch.as_tensor)
+        low, high = task.action_low, task.action_high
+        x, terminated = batch_transitions(batch, low, high, cfg.gamma, cfg.absorbing)
+        policy_x = x.map(torch.as_tensor)
+        n_real = batch.n_steps
         pause = False
         if cfg.disc_pause_above < 1:
             with torch.no_grad():
@@ -205,21 +196,16 @@ def train_adversarial(
             stats["disc_paused"] = float(pause)
         with torch.no_grad():
             r = reward(disc(policy_x)).numpy()
-        per_step = r[:n_real].reshape(batch.rewards.shape)
-        stats["reward_mean"] = float(per_step.mean())
-        stats["terminations"] = float(n_term)
-        if not cfg.absorbing:
-            return Rewards(per_step, logged=stats)
-        # D's current reward for the absorbing loop, logged every update: in batches without
-        # a termination D has no absorbing sample to train on, and what it makes of the state
-        # then drifts; that drift is what a collapse after reaching the expert needs watching for.
-        with torch.no_grad():
-            stats["reward_absorbing"] = float(reward(disc(absorbing_probe))[1])
-        after = np.zeros(n_real)
-        if n_term:
-            tail = absorbing.tail_rewards(r[n_real:], n_term)
-            after[terminated] = absorbing.tail_value(tail, cfg.gamma)
-        return Rewards(per_step, after.reshape(batch.rewards.shape), stats)
+        stats["reward_mean"] = float(r[:n_real].reshape(batch.rewards.shape).mean())
+        stats["terminations"] = float(terminated.sum())
+        if cfg.absorbing:
+            # D's current reward for the absorbing loop, logged every update: in batches
+            # without a termination D has no absorbing sample to train on, and what it makes
+            # of the state then drifts; that drift is what a collapse after reaching the expert
+            # needs watching for.
+            with torch.no_grad():
+                stats["reward_absorbing"] = float(reward(disc(absorbing_probe))[1])
+        return batch_rewards(r, batch, terminated, cfg.gamma, cfg.absorbing, stats)
 
     train(
         task.make_env,

@@ -31,8 +31,8 @@ from bench.imitation.discriminator import (
     discriminator_log,
     discriminator_loss,
 )
+from bench.imitation.rewards import replay_transitions
 from bench.rl import resume, sac
-from bench.rl.absorbing import Transitions
 from bench.rl.networks import RunningNorm
 
 
@@ -58,18 +58,6 @@ class OffPolicyAdversarialConfig(OffPolicyConfig, DiscriminatorConfig):
 def sac_budget(config: OffPolicyConfig) -> int:
     """Fewest env steps to learn anything: the random steps before the first update, plus one."""
     return config.learning_starts + config.n_envs
-
-
-def replay_transitions(batch: sac.ReplayBatch) -> Transitions:
-    """A replay minibatch as D reads transitions."""
-    return Transitions(
-        batch.raw("obs"),
-        batch.actions,
-        batch.raw("next_obs"),
-        batch.obs_absorbing,
-        batch.next_absorbing,
-        torch.ones(len(batch.obs), device=batch.obs.device),
-    )
 
 
 def expert_replay(

@@ -80,6 +80,8 @@ def main(argv: list[str] | None = None) -> int:
     if args.compare is None:
         return 0
     before = untimed(json.loads(args.compare.read_text()))
+    if args.only:  # the trials asked for only
+        before = {k: v for k, v in before.items() if args.only in k}
     differ = [k for k in sorted(set(before) | set(prints)) if before.get(k) != prints.get(k)]
     for k in differ:
         print(f"differs: {k}")

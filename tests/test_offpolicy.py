@@ -9,6 +9,7 @@ from algorithms import offpolicy
 from bench.harness import registry, store
 from bench.harness.runner import run_suite
 from bench.harness.suite import load_suite
+from bench.imitation.rewards import replay_transitions
 from bench.rl import sac
 from bench.rl.absorbing import FLAG
 
@@ -73,7 +74,7 @@ def test_rewards_come_from_the_current_discriminator(pendulum):
     out = reward_fn(batch)
     first = out.rewards
     with torch.no_grad():
-        now = disc.net(disc.inputs(offpolicy.replay_transitions(batch))).squeeze(-1)
+        now = disc.net(disc.inputs(replay_transitions(batch))).squeeze(-1)
     assert torch.equal(first, now)  # D after its step on this very minibatch
     assert not torch.equal(reward_fn(batch).rewards, first)  # and D moves on every minibatch
     assert {"disc_loss", "disc_acc_policy", "disc_acc_expert"} <= set(out.logged)

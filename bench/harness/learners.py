@@ -14,7 +14,7 @@ from bench.harness.registry import Logger, Task, snapshots_of
 from bench.rl.networks import DeterministicPolicy, GaussianPolicy
 from bench.rl.rollout import Batch, RewardFn
 from bench.rl.shared_trunk import make_trpo
-from bench.rl.trpo import TRPO, Callback, TRPOConfig, train
+from bench.rl.trpo import TRPO, OnUpdate, TRPOConfig, train
 
 
 @dataclass
@@ -91,7 +91,7 @@ class PolicyAverage:
 
 def report_each_update(
     task: Task, logger: Logger, average: PolicyAverage | None = None
-) -> Callback:
+) -> OnUpdate:
     """A TRPO callback: log the update's diagnostics (the optimizer's, and the reward's own:
     `Rewards.logged`) and the policy's action noise (mean std), fold the policy into `average`
     if given, and offer the policy (the average, if given) for evaluation."""

@@ -404,7 +404,7 @@ class OffPolicyLearner(Protocol):
     def load_state_dict(self, state: dict[str, Any]) -> None: ...
 
 
-Callback = Callable[[int, SAC, dict[str, float]], None]
+OnReport = Callable[[int, SAC, dict[str, float]], None]
 """callback(env_steps_so_far, learner, last_update_info and seconds spent collecting and
 updating so far), every `report_every` env steps."""
 
@@ -415,7 +415,7 @@ def train(
     seed: int,
     cfg: SACConfig,
     reward_fn: SACRewardFn | None = None,
-    callback: Callback | None = None,
+    callback: OnReport | None = None,
     report_every: int | None = None,
     learner: OffPolicyLearner | None = None,
     snapshots: Snapshots | None = None,

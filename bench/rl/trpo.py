@@ -328,7 +328,7 @@ class TRPO:
         return {"vf_loss": value_step(self.vf_opt, len(obs), loss_of, self.cfg, self.gen)}
 
 
-Callback = Callable[[int, TRPO, Batch, dict[str, float]], None]
+OnUpdate = Callable[[int, TRPO, Batch, dict[str, float]], None]
 """callback(env_steps_so_far, learner, batch, update_info), after every update."""
 
 
@@ -338,7 +338,7 @@ def train(
     seed: int,
     cfg: TRPOConfig | None = None,
     reward_fn: RewardFn | None = None,
-    callback: Callback | None = None,
+    callback: OnUpdate | None = None,
     learner: TRPO | None = None,
     snapshots: Snapshots | None = None,
     keep: Mapping[str, Any] | None = None,
