@@ -181,3 +181,67 @@ def test_a_truncated_dataset_is_one_line_before_any_trial(exported, tmp_path, ca
     err = capsys.readouterr().err.strip()
     assert "\n" not in err and str(folder) in err and "Traceback" not in err
     assert not list((tmp_path / "res").glob("trials/*.json"))
+
+
+# ---------------------------------------------------------------- MuJoCo (gymnasium v5)
+
+PENDULUM_V5 = "InvertedPendulum-v5"
+
+
+@pytest.fixture(scope="module")
+def exported_v5(module_cache, tmp_path_factory):
+    """The v5 pendulum's pool (recorded from its shipped expert), exported as a Minari dataset."""
+    mp = pytest.MonkeyPatch()
+    root = tmp_path_factory.mktemp("minari-v5")
+    name = minari_io.export(PENDULUM_V5, root, random_return=5.0, expert_return=1000.0)
+    mp.setenv("MINARI_DATASETS_PATH", str(root))
+    yield root, minari.load_dataset(name), demos.ensure_pool(PENDULUM_V5)
+    mp.undo()
+
+
+def test_a_mujoco_pool_round_trips_and_minari_normalizes_like_bench(exported_v5):
+    _, dataset, pool_path = exported_v5
+    assert dataset.spec.env_spec.id == PENDULUM_V5
+    scores = minari.get_normalized_score(dataset, np.array([5.0, 502.5, 1000.0]))
+    np.testing.assert_allclose(scores, [0.0, 0.5, 1.0])
+    imported = minari_io.ensure_pool(dataset.id, PENDULUM_V5)
+    a = demos.load_action_demos(imported, PENDULUM_V5, 3, 1)
+    b = demos.load_action_demos(pool_path, PENDULUM_V5, 3, 1)
+    for x, y in zip(
+        a.demos.observations + a.actions, b.demos.observations + b.actions, strict=True
+    ):
+        np.testing.assert_array_equal(x, y)
+
+
+def test_minaris_own_mujoco_datasets_load_as_demonstrations(exported_v5, tmp_path):
+    """A dataset in the layout of Minari's `mujoco/<task>/expert-v0` (made here from the
+    exported episodes: nothing is downloaded) serves a suite by its id, from the local root."""
+    root, dataset, _ = exported_v5
+    name = "mujoco/invertedpendulum/expert-v0"
+    buffers = [
+        EpisodeBuffer(
+            id=ep.id,
+            observations=list(ep.observations),
+            actions=list(ep.actions),
+            rewards=list(ep.rewards),
+            terminations=list(ep.terminations),
+            truncations=list(ep.truncations),
+        )
+        for ep in dataset.iterate_episodes()
+    ]
+    with minari_io._datasets_root(root), warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        minari.create_dataset_from_buffers(
+            dataset_id=name,
+            buffer=buffers,
+            env=PENDULUM_V5,
+            observation_space=dataset.observation_space,
+            action_space=dataset.action_space,
+            ref_min_score=5.0,
+            ref_max_score=1000.0,
+        )
+    pool = minari_io.ensure_pool(name, PENDULUM_V5)
+    states = demos.load_demos(pool, PENDULUM_V5, 5, 0)
+    assert states.n_episodes == 5 and states.obs_dim == 4
+    suite = load_suite(write_suite(tmp_path, name, "random, expert, gaifo", PENDULUM_V5))
+    assert {s.dataset for s in suite.trials} == {name}

@@ -1,8 +1,12 @@
-"""The only place environments are built.
+"""The only place environments are built, for both simulators.
 
-Any gymnasium id with Box observations and Box actions works; the PyBullet ids
-are registered by importing `pybullet_envs_gymnasium`, whose C code prints to
-the process's stdout, so every call that may reach it runs with fd 1 silenced.
+Any gymnasium id with Box observations and Box actions works. The paper's six tasks exist twice:
+on PyBullet (`PYBULLET_ENVS`, the paper's own, reproduced in results/pybullet) and on MuJoCo
+through gymnasium v5 (`MUJOCO_ENVS`, where the field compares today). PyBullet is optional: it
+has no wheels past Python 3.11, so it is imported only when a PyBullet id is asked for. Its ids
+are registered by importing `pybullet_envs_gymnasium`, whose C code prints to the process's
+stdout (as MuJoCo's model compiler prints deprecation notes to stderr), so every call that may
+reach either runs with fds 1 and 2 silenced.
 """
 
 from __future__ import annotations
@@ -19,7 +23,7 @@ import numpy as np
 from bench.errors import BadInput
 from bench.harness.pixels import Frames, PixelConfig
 
-PAPER_ENVS = (
+PYBULLET_ENVS = (
     "InvertedPendulumBulletEnv-v0",
     "InvertedDoublePendulumBulletEnv-v0",
     "HopperBulletEnv-v0",
@@ -27,6 +31,17 @@ PAPER_ENVS = (
     "HalfCheetahBulletEnv-v0",
     "AntBulletEnv-v0",
 )
+MUJOCO_ENVS = (
+    "InvertedPendulum-v5",
+    "InvertedDoublePendulum-v5",
+    "Hopper-v5",
+    "Walker2d-v5",
+    "HalfCheetah-v5",
+    "Ant-v5",
+)
+PAPER_ENVS = PYBULLET_ENVS + MUJOCO_ENVS
+"""The paper's six tasks on each simulator, in the paper's order (figures' panels follow it)."""
+PYBULLET_INSTALL = "pip install 'ifo-bench[pybullet]' (PyBullet has wheels up to Python 3.11)"
 
 
 class EnvError(BadInput, ValueError):
@@ -68,21 +83,33 @@ def quiet_stdout() -> Iterator[None]:
 _registered = False
 
 
-def _register_pybullet() -> None:
+def is_pybullet(env_id: str) -> bool:
+    """Whether `env_id` is one of PyBullet's (pybullet_envs_gymnasium's ids say "Bullet")."""
+    return "Bullet" in env_id
+
+
+def _register_pybullet() -> bool:
+    """Register PyBullet's ids (once); False where PyBullet is not installed."""
     global _registered
     if not _registered:
-        with quiet_stdout():
-            import pybullet_envs_gymnasium  # noqa: F401  (registers the *BulletEnv ids)
+        try:
+            with quiet_stdout():
+                import pybullet_envs_gymnasium  # noqa: F401  (registers the *BulletEnv ids)
 
-            from bench.harness import bullet_speed
+                from bench.harness import bullet_speed
 
-            bullet_speed.apply()  # same trajectories, ~1.3x the steps per second
+                bullet_speed.apply()  # same trajectories, ~1.3x the steps per second
+        except ImportError:
+            return False
         _registered = True
+    return True
 
 
 def check_env_id(env_id: str) -> None:
     """Raise EnvError (one line) unless `env_id` is a registered id with Box spaces."""
-    _register_pybullet()
+    needs_pybullet = is_pybullet(env_id) or env_id not in gym.registry
+    if needs_pybullet and not _register_pybullet() and is_pybullet(env_id):
+        raise EnvError(f"{env_id} needs PyBullet, which is not installed: {PYBULLET_INSTALL}")
     if env_id not in gym.registry:
         close = [k for k in gym.registry if env_id.lower().split("-")[0] in k.lower()][:3]
         hint = f" (did you mean {', '.join(close)}?)" if close else ""
@@ -103,9 +130,10 @@ def make(env_id: str, seed: int, pixels: PixelConfig | None = None) -> gym.Env:
         if pixels is None:
             env = gym.make(env_id, disable_env_checker=True)
         else:
-            env = gym.wrappers.FlattenObservation(
-                Frames(gym.make(env_id, render_mode="rgb_array", disable_env_checker=True), pixels)
+            rendered = gym.make(
+                env_id, render_mode="rgb_array", disable_env_checker=True, **_canvas(env_id, pixels)
             )
+            env = gym.wrappers.FlattenObservation(Frames(rendered, pixels))
         env.reset(seed=seed)
     if not isinstance(env.action_space, gym.spaces.Box):
         env.close()
@@ -121,6 +149,22 @@ def make(env_id: str, seed: int, pixels: PixelConfig | None = None) -> gym.Env:
         )
     env.action_space.seed(seed)
     return env
+
+
+def is_mujoco(env_id: str) -> bool:
+    """Whether `env_id` is one of gymnasium's MuJoCo tasks."""
+    entry = gym.spec(env_id).entry_point
+    return isinstance(entry, str) and entry.startswith("gymnasium.envs.mujoco")
+
+
+def _canvas(env_id: str, pixels: PixelConfig) -> dict[str, int]:
+    """What an env renders at: MuJoCo's renderer draws the frame's own size (its default,
+    480 x 480, would be drawn and then shrunk), headless through EGL unless MUJOCO_GL says
+    otherwise; PyBullet's size is set on the env (`Frames`)."""
+    if not is_mujoco(env_id):
+        return {}
+    os.environ.setdefault("MUJOCO_GL", "egl")
+    return {"width": pixels.size, "height": pixels.size}
 
 
 def spaces(

@@ -13,7 +13,7 @@ import traceback
 from collections.abc import Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass, field
-from importlib.metadata import version
+from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
 from typing import Any
 
@@ -182,8 +182,20 @@ def open_events(root: str | Path | None, spec: TrialSpec) -> Any:
     return SummaryWriter(str(event_dir(root, spec)), flush_secs=10)
 
 
-def versions() -> dict[str, str]:
-    return {pkg: version(pkg) for pkg in ("ifo-bench", "torch", "gymnasium", "pybullet")}
+def versions(env_id: str) -> dict[str, str]:
+    """The versions of what decides a trial's numbers: ours, torch's, gymnasium's and the
+    simulator's the env runs on."""
+    simulator = "pybullet" if envs.is_pybullet(env_id) else "mujoco"
+    packages = ("ifo-bench", "torch", "gymnasium", simulator)
+    return {pkg: version(pkg) for pkg in packages if _installed(pkg)}
+
+
+def _installed(package: str) -> bool:
+    try:
+        version(package)
+    except PackageNotFoundError:
+        return False
+    return True
 
 
 @dataclass(frozen=True)
@@ -334,7 +346,7 @@ def run_trial(
         curve=logger.curve,
         env_steps=tally.steps,
         wall_time=round(time.time() - start if resumed is None else resumed.spent(), 3),
-        versions=versions(),
+        versions=versions(spec.env_id),
         traceback=tb,
         logs=logger.logs,
         inputs=given,
@@ -372,6 +384,6 @@ def run_trial_apart(
         curve=[],
         env_steps=0,
         wall_time=round(time.time() - start, 3),
-        versions=versions(),
+        versions=versions(spec.env_id),
         traceback=f"TrialDied: {result}",
     )
