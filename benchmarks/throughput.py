@@ -1,13 +1,17 @@
 """Env steps per second on one core: raw random stepping vs TRPO and GAIfO training.
 
     python benchmarks/throughput.py [--steps 60000] [--envs InvertedPendulumBulletEnv-v0 HopperBulletEnv-v0]
+    python benchmarks/throughput.py --steps 60000 --envs HopperBulletEnv-v0 Hopper-v5 Walker2DBulletEnv-v0 \
+        Walker2d-v5 HalfCheetahBulletEnv-v0 HalfCheetah-v5 AntBulletEnv-v0 Ant-v5   # both simulators
     python benchmarks/throughput.py --pixels --steps 10000   # from 64x64 frames (`observation: pixels`)
     python benchmarks/throughput.py --envs HopperBulletEnv-v0 --steps 5000 --sac 128 256   # SAC beside
     python benchmarks/throughput.py --envs HopperBulletEnv-v0 --steps 5000 --sac 256 --sac-device cpu cuda
     python benchmarks/throughput.py --library   # everything with pybullet's own stepping: the before
 
-Prints one row per env. `raw (library)` steps the env as pybullet_envs_gymnasium ships it,
-`raw` with `bench.harness.bullet_speed` (what every trial runs; same trajectories). `trpo/raw` =
+Prints one row per env. `raw (library)` steps a PyBullet env as pybullet_envs_gymnasium ships
+it, `raw` with `bench.harness.bullet_speed` (what every trial runs; same trajectories); on a
+MuJoCo id both are gymnasium's env. `batched` steps the MuJoCo task in EnvPool's C++ batch (8
+envs, one thread), where EnvPool is installed (`pip install envpool`); trials do not use it. `trpo/raw` =
 TRPO training throughput (updates included) over raw stepping: the simulator is the limit,
 everything else is overhead. `gaifo/raw` likewise for GAIfO (discriminator updates and
 rewards included). GAIfO needs the env's expert (for one demonstration).
@@ -42,6 +46,28 @@ def raw_steps_per_s(env_id: str, steps: int, pixels: PixelConfig | None = None) 
     elapsed = time.perf_counter() - start
     env.close()
     return steps / elapsed
+
+
+def batched_steps_per_s(env_id: str, steps: int, n_envs: int = 8) -> float:
+    """Random stepping of `n_envs` copies of `env_id` in EnvPool's batch, on one thread (NaN
+    where EnvPool is missing or has no such task)."""
+    try:
+        import envpool
+    except ImportError:
+        return float("nan")
+    if env_id not in envpool.list_all_envs():
+        return float("nan")
+    env = envpool.make_gymnasium(env_id, num_envs=n_envs, seed=0, num_threads=1)
+    env.reset()
+    low, high = env.action_space.low, env.action_space.high
+    rounds = steps // n_envs
+    actions = np.random.default_rng(0).uniform(low, high, (rounds, n_envs, len(low)))
+    start = time.perf_counter()
+    for a in actions.astype(np.float32):
+        env.step(a)  # EnvPool resets a finished env on the next step by itself
+    elapsed = time.perf_counter() - start
+    env.close()
+    return rounds * n_envs / elapsed
 
 
 def trpo_steps_per_s(env_id: str, steps: int, pixels: PixelConfig | None = None) -> float:
@@ -147,22 +173,29 @@ def main() -> None:
     args = parser.parse_args()
     pixels = PixelConfig(size=args.frame_size) if args.pixels else None
     torch.set_num_threads(1)
-    from bench.harness import bullet_speed
+    pybullet = [e for e in args.envs if envs.is_pybullet(e)]
+    if pybullet:
+        from bench.harness import bullet_speed
 
-    envs.make(args.envs[0], 0).close()  # registers the envs, and with them the patches
-    header = ("env", "raw (library)", "raw", "TRPO", "GAIfO", "trpo/raw", "gaifo/raw")
+        envs.make(pybullet[0], 0).close()  # registers the envs, and with them the patches
+    header = ("env", "raw (library)", "raw", "batched", "TRPO", "GAIfO", "trpo/raw", "gaifo/raw")
     print("steps per second, one core" + (" (--library: no speed patches)" if args.library else ""))
     print(f"{header[0]:32s}" + "".join(f"{h:>14s}" for h in header[1:]))
     for env_id in args.envs:
-        bullet_speed.restore()
-        library = raw_steps_per_s(env_id, args.steps, pixels)
-        if not args.library:
-            bullet_speed.apply_again()
-        raw = raw_steps_per_s(env_id, args.steps, pixels)
+        if envs.is_pybullet(env_id):
+            bullet_speed.restore()
+            library = raw_steps_per_s(env_id, args.steps, pixels)
+            if not args.library:
+                bullet_speed.apply_again()
+            raw = raw_steps_per_s(env_id, args.steps, pixels)
+            batched = float("nan")
+        else:
+            library = raw = raw_steps_per_s(env_id, args.steps, pixels)
+            batched = batched_steps_per_s(env_id, args.steps) if pixels is None else float("nan")
         trpo = trpo_steps_per_s(env_id, args.steps, pixels)
         gaifo = gaifo_steps_per_s(env_id, args.steps, pixels)
         print(
-            f"{env_id:32s}{library:14,.0f}{raw:14,.0f}{trpo:14,.0f}{gaifo:14,.0f}"
+            f"{env_id:32s}{library:14,.0f}{raw:14,.0f}{batched:14,.0f}{trpo:14,.0f}{gaifo:14,.0f}"
             f"{trpo / raw:14.2f}{gaifo / raw:14.2f}",
             flush=True,
         )

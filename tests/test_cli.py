@@ -90,6 +90,25 @@ def test_run_of_an_env_not_in_the_suite(finished_results, tmp_path, bench_here):
     assert snapshot(finished_results) == before
 
 
+@pytest.mark.parametrize("where", ["name", "results", "parent"])
+def test_results_never_land_in_the_shipped_experts_folder(where, tmp_path, bench_here, monkeypatch):
+    """A suite named `experts` run without --results, or --results naming the experts' folder
+    or a folder above it, is refused before anything is written there."""
+    from bench.harness import paths
+
+    experts = snapshot(paths.EXPERTS_DIR)
+    monkeypatch.chdir(paths.EXPERTS_DIR.parent.parent)  # where `results/<name>` is results/experts
+    suite = tmp_path / "experts.yaml"
+    suite.write_text(GOOD)
+    given = {"name": [], "results": ["--results", str(paths.EXPERTS_DIR)]}
+    given["parent"] = ["--results", str(paths.EXPERTS_DIR.parent)]
+    out = bench_here("run", str(suite), "--jobs", "1", *given[where])
+    assert out.returncode == 2 and out.stderr.count("\n") == 1, out.stderr
+    assert "shipped experts" in out.stderr
+    assert snapshot(paths.EXPERTS_DIR) == experts
+    assert not (paths.EXPERTS_DIR / "trials").exists()
+
+
 def test_missing_suite_file(cli):
     out = cli("run", "no/such/suite.yaml")
     assert (

@@ -265,3 +265,15 @@ def test_a_renamed_record_is_left_out_and_an_ok_one_without_returns_is_retried(t
     assert have == {empty.stem: store.NO_RETURN}
     assert pending([record.spec], have, retry_failed=False) == []
     assert pending([record.spec], have, retry_failed=True) == [record.spec]
+
+
+@pytest.mark.parametrize(("umask", "mode"), [(0o022, 0o644), (0o002, 0o664), (0o077, 0o600)])
+def test_files_are_written_with_the_users_umask(tmp_path, umask, mode):
+    from bench import atomic
+
+    before = os.umask(umask)
+    try:
+        path = atomic.write_text(tmp_path / "record.json", "{}")
+    finally:
+        os.umask(before)
+    assert path.stat().st_mode & 0o777 == mode

@@ -8,6 +8,8 @@ import sys
 from pathlib import Path
 
 from bench.cli.args import duration, folder, jobs_count
+from bench.errors import BadInput
+from bench.harness import paths
 
 
 def _run(args: argparse.Namespace) -> int:
@@ -25,6 +27,12 @@ def _run(args: argparse.Namespace) -> int:
     from bench.harness.snapshots import FOLDER
 
     results = Path(args.results) if args.results else Path("results") / suite.name
+    shipped = paths.shipped_folder(results)
+    if shipped is not None:
+        raise BadInput(
+            f"{results}: results would be written into {shipped}, which holds the shipped"
+            " experts; name another folder (--results DIR, or another suite name)"
+        )
     backend = args.backend or suite.runner.backend
     jobs = args.jobs if args.jobs is not None else suite.runner.jobs
     if args.estimate:

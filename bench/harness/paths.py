@@ -20,3 +20,13 @@ def has_expert(env_id: str) -> bool:
     return (expert_dir(env_id) / "policy.pt").is_file() and (
         expert_dir(env_id) / "meta.json"
     ).is_file()
+
+
+def shipped_folder(folder: str | Path) -> Path | None:
+    """The shipped folder (the experts') that `folder` is, lies in or holds, or None: results
+    are never written there, whatever a suite is named or `--results` says."""
+    target = Path(folder).resolve()
+    experts = EXPERTS_DIR.resolve()
+    if target == experts or experts in target.parents or target in experts.parents:
+        return experts
+    return None

@@ -319,6 +319,11 @@ def run_trial(
             task = trial.task(tally)
             config = algo.make_config(spec.hyperparams)
             policy = algo.train(task, inputs, spec.budget, spec.seed, logger, config)
+            if tally.steps > spec.budget:  # it caught the budget's error and went on
+                raise BudgetExceeded(
+                    f"{spec.algorithm} took {tally.steps} env steps, more than its budget of"
+                    f" {spec.budget} (the budget's error was caught inside the algorithm)"
+                )
             visited: list[np.ndarray] | None = None if trial.pixels else []
             returns = evaluate(policy, eval_envs, spec.eval_episodes, eval_seed, visited)
             # the expert's policy is shipped (results/experts), not kept per trial

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import Any
 
 import gymnasium as gym
 import numpy as np
@@ -198,6 +199,20 @@ class VecCollector:
             env.close()
 
 
+def checked_actions(actions: Any, n: int, shape: tuple[int, ...]) -> np.ndarray:
+    """A policy's actions for n observations, as an array of n actions of the env's `shape`,
+    all finite; else ValueError saying what was wrong. The harness trusts no learner's policy."""
+    actions = np.asarray(actions)
+    if actions.shape != (n, *shape):
+        raise ValueError(
+            f"the policy returned actions of shape {actions.shape} for {n} observations;"
+            f" the env takes {(n, *shape)}"
+        )
+    if not np.all(np.isfinite(actions)):
+        raise ValueError("the policy returned non-finite actions (NaN or inf)")
+    return actions
+
+
 def evaluate(
     policy: Callable[[np.ndarray], np.ndarray],
     envs: list[gym.Env],
@@ -230,7 +245,7 @@ def evaluate(
         batch = np.stack(obs)
         if visited is not None:
             visited.append(batch)
-        acts = policy(batch)
+        acts = checked_actions(policy(batch), len(batch), live[0][1].action_space.shape)
         keep = []
         for j, ((k, env), a) in enumerate(zip(live, acts, strict=True)):
             o, r, term, trunc, _ = env.step(a)
