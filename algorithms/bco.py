@@ -31,7 +31,7 @@ from bench.imitation.inverse_dynamics import InverseModel, fit_inverse, inverse_
 from bench.rl.networks import DeterministicPolicy, GaussianPolicy
 from bench.rl.resume import TORCH_RNG, Resumable
 from bench.rl.rollout import VecCollector
-from bench.validate import above, at_least
+from bench.validate import above, at_least, layers
 
 
 @dataclass
@@ -67,8 +67,7 @@ class BCOConfig:
     """Initial log std of the policy; cloning then fits it by maximum likelihood."""
 
     def __post_init__(self) -> None:
-        self.inverse_hidden = tuple(self.inverse_hidden)  # YAML gives lists
-        self.policy_hidden = tuple(self.policy_hidden)
+        layers(self, "inverse_hidden", "policy_hidden")
         if self.n_envs < 1 or self.pre_demo_steps < self.n_envs:
             raise ValueError("need n_envs >= 1 and pre_demo_steps >= n_envs")
         if self.alpha < 0 or not 0 < self.val_fraction < 1:

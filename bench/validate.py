@@ -59,6 +59,18 @@ def above(config: object, minimum: float, *names: str) -> None:
             raise ValueError(f"{name} must be > {minimum}, not {value}")
 
 
+def layers(config: object, *names: str) -> None:
+    """For a config's `__post_init__`: each of `names` is a list of hidden layer sizes, each at
+    least 1 (a zero-width layer makes a network output a constant, which trains "fine"), and
+    makes it a tuple (YAML gives lists)."""
+    for name in names:
+        sizes = tuple(getattr(config, name))
+        for i, size in enumerate(sizes):
+            if size < 1:
+                raise ValueError(f"{name}[{i}] must be >= 1 (a layer's width), not {size}")
+        setattr(config, name, sizes)
+
+
 # ---------------------------------------------------------------- pydantic errors, one line
 
 _EXPECTED = {

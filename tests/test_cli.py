@@ -55,6 +55,24 @@ BAD_SUITES = {
         GOOD.replace("2048", "1000").replace("[random, expert]", "[random, expert, survival]"),
         "1000 env steps are fewer than survival needs to train (2048)",
     ),
+    "a zero-width layer": (
+        GOOD.replace("[random, expert]", "[random, expert, {gaifo: {disc_hidden: [64, 0]}}]"),
+        "disc_hidden[1] must be >= 1",
+    ),
+    "a seed no generator takes": (
+        GOOD.replace("seeds: 1", "seeds: [1, 100000000000000000000]"),
+        "seeds[1]",
+    ),
+    "a seed count too large to expand": (
+        GOOD.replace("seeds: 1", "seeds: 1000000000"),
+        "at most 100,000 seeds",
+    ),
+    "a suite too large to run": (
+        GOOD.replace("seeds: 1", "seeds: 100000")
+        .replace("demos: [1]", "demos: [1, 2, 3, 4, 5, 6, 7]")
+        .replace("[random, expert]", "[random, expert, gaifo, gail]"),
+        "more than 1,000,000",
+    ),
     "a bool for an int": (
         GOOD.replace("[random, expert]", "[random, expert, {survival: {n_envs: true}}]"),
         "n_envs: expected an integer",

@@ -21,7 +21,7 @@ from torch import nn
 from bench.rl import absorbing
 from bench.rl.absorbing import Transitions
 from bench.rl.networks import ConvTrunk, ObsShape, PixelScale, RunningNorm, mlp, shape_of
-from bench.validate import above, at_least
+from bench.validate import above, at_least, layers
 
 REWARDS: dict[str, Callable[[torch.Tensor], torch.Tensor]] = {
     "-log(1-D)": lambda logit: F.softplus(logit),  # -log(1 - sigmoid(x)) = softplus(x) > 0
@@ -49,7 +49,7 @@ class DiscriminatorConfig:
     (OPOLO's 0.001); 0: none."""
 
     def __post_init__(self) -> None:
-        self.disc_hidden = tuple(self.disc_hidden)  # YAML gives lists
+        layers(self, "disc_hidden")
         above(self, 0, "disc_lr")
         at_least(self, 0, "grad_penalty", "gp_target", "disc_entropy")
 

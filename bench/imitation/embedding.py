@@ -14,7 +14,7 @@ from torch import nn
 
 from bench.imitation.data import Demos
 from bench.rl.networks import ObsShape, body, normalizer
-from bench.validate import above, at_least
+from bench.validate import above, at_least, layers
 
 
 @dataclass
@@ -39,7 +39,7 @@ class EmbeddingConfig:
     """Triplets per Adam step."""
 
     def __post_init__(self) -> None:
-        self.embed_hidden = tuple(self.embed_hidden)  # YAML gives lists
+        layers(self, "embed_hidden")
         if not 1 <= self.pos_window < self.neg_margin:
             raise ValueError("need 1 <= pos_window < neg_margin")
         at_least(self, 1, "embed_dim", "embed_steps", "embed_minibatch")

@@ -35,6 +35,7 @@ from bench.rl.absorbing import FLAG
 from bench.rl.networks import mlp
 from bench.rl.resume import TORCH_RNG, Resumable, Snapshots, Stateful
 from bench.rl.rollout import VecCollector
+from bench.validate import layers
 
 
 @dataclass
@@ -64,7 +65,7 @@ class SACConfig:
     replay buffer and the envs stay in CPU memory; each minibatch goes over as it is sampled."""
 
     def __post_init__(self) -> None:
-        self.hidden = tuple(self.hidden)
+        layers(self, "hidden")
         try:
             kind = torch.device(self.device).type
         except (RuntimeError, TypeError):

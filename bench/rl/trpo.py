@@ -21,7 +21,7 @@ import torch
 from bench.rl.networks import ConvTrunk, GaussianPolicy, ObsShape, RunningNorm, ValueNet
 from bench.rl.resume import TORCH_RNG, Resumable, Snapshots
 from bench.rl.rollout import Batch, RewardFn, Rewards, VecCollector
-from bench.validate import above, at_least
+from bench.validate import above, at_least, layers
 
 
 @dataclass
@@ -58,7 +58,7 @@ class TRPOConfig:
     """Initial log standard deviation of the policy."""
 
     def __post_init__(self) -> None:
-        self.hidden = tuple(self.hidden)  # YAML gives lists
+        layers(self, "hidden")
         counts = ("n_envs", "steps_per_env", "cg_iters", "fisher_subsample", "vf_epochs")
         for name in (*counts, "vf_minibatch"):
             if getattr(self, name) < 1:

@@ -10,7 +10,8 @@ from typing import Any
 from bench import validate
 from bench.harness import registry
 from bench.harness.suite import resolve
-from bench.harness.suite.types import AlgorithmEntry, EnvSettings
+from bench.harness.suite.expand import seeds_of
+from bench.harness.suite.types import AlgorithmEntry, EnvSettings, Suite
 from bench.harness.types import TrialSpec
 from bench.validate import show
 
@@ -51,6 +52,22 @@ def check_budgets(trials: list[TrialSpec]) -> None:
                 f"envs.{spec.env_id}.budget",
                 f"{spec.budget} env steps are fewer than {spec.shown} needs to train ({need})",
             )
+
+
+MAX_TRIALS = 1_000_000
+"""A suite that expands to more trials is refused before it is expanded: a million trials of
+the smallest budget are weeks of cores, and their specs alone take gigabytes."""
+
+
+def check_size(suite: Suite) -> None:
+    """The suite's trial count, counted without expanding it, is at most `MAX_TRIALS`."""
+    count = 0
+    for env in suite.envs:
+        for entry in suite.algorithms:
+            runs = len(suite.demos) if entry.uses_demos else 1
+            count += runs * len(seeds_of(suite, env, entry))
+    if count > MAX_TRIALS:
+        raise Invalid("", f"the suite has {count:,} trials, more than {MAX_TRIALS:,}; split it")
 
 
 def check_video_learners(env: EnvSettings, algorithms: tuple) -> None:

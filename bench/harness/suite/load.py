@@ -147,6 +147,7 @@ def _suite(raw: Any, path: Path) -> Suite:
         runner,
         file.curve_points,
     )
+    checks.check_size(suite)
     trials = expand(suite)
     checks.check_budgets(trials)
     return dataclasses.replace(suite, trials=tuple(trials))

@@ -23,8 +23,14 @@ LABEL_PATTERN = r"^[A-Za-z0-9][A-Za-z0-9._=,+\[\]-]*$"  # as sweeps write them
 
 _STRICT = ConfigDict(extra="forbid", strict=True)
 
+SEED_LIMIT = 10**15
+"""Seeds are below this: a trial seeds torch generators with its seed times 1000 plus small
+offsets (its envs', its evaluation's), and torch takes seeds below 2^64 (~1.8e19)."""
+MAX_SEEDS = 100_000
+"""A seed count above this is refused before it is expanded into a list."""
+
 Count = Annotated[int, Field(ge=1)]
-Seed = Annotated[int, Field(ge=0)]
+Seed = Annotated[int, Field(ge=0, lt=SEED_LIMIT)]
 
 
 def _distinct(values: list) -> tuple:
@@ -42,6 +48,8 @@ def _seeds(value: Any) -> Any:
         return value
     if isinstance(value, bool) or not isinstance(value, int) or value < 1:
         raise ValueError(f"expected a seed count or a list of seeds, got {show(value)}")
+    if value > MAX_SEEDS:
+        raise ValueError(f"expected at most {MAX_SEEDS:,} seeds, got {value:,}")
     return list(range(value))
 
 
