@@ -276,6 +276,12 @@ def describe(name: str) -> tuple[Role, str | None, str]:
     return ("learner", None, name) if algo is None else (algo.role, algo.family, algo.label)
 
 
+def shown_as(algorithm: str, spec_label: str | None) -> str:
+    """What a trial is called in records, figures and reports: its suite's label for it (a
+    variant's), else its algorithm's registered label."""
+    return spec_label or get(algorithm).label
+
+
 def all_algorithms() -> dict[str, Algorithm]:
     _load_all()
     return dict(_ALGORITHMS)

@@ -49,7 +49,7 @@ def link_finished(specs: list[TrialSpec], results_dir: Path, root: Path | None) 
     found = store.find(root, {s.trial_id for s in specs}, besides=results_dir)
     for spec in specs:
         if spec.trial_id in found:
-            label = spec.label or registry.get(spec.algorithm).label
+            label = registry.shown_as(spec.algorithm, spec.label)
             store.link(results_dir, spec, label, found[spec.trial_id])
     return [s for s in specs if s.trial_id not in found]
 

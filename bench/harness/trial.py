@@ -310,7 +310,8 @@ def run_trial(
         torch.manual_seed(spec.seed)
         trial = plan(spec)
         algo = trial.algorithm
-        given, role, family, label = algo.inputs, algo.role, algo.family, spec.label or algo.label
+        given, role, family = algo.inputs, algo.role, algo.family
+        label = registry.shown_as(spec.algorithm, spec.label)
         if spec.dataset and algo.inputs == "expert":
             # The demonstrator of an imported dataset cannot be run: its returns stand in.
             returns, reference = minari_io.expert_reference(minari_io.open_dataset(spec.dataset))
