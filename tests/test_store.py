@@ -196,6 +196,14 @@ def test_find_result_dirs(tmp_path):
     assert store.find_result_dirs(tmp_path / "empty") == []
 
 
+def test_the_search_for_results_stops_two_levels_down(tmp_path):
+    """A run prices by the records under its results' parent; where that parent is `/` or a
+    home folder, it reads `<parent>/<suite>/` and one level more, not the whole disk."""
+    for sub in ["a/trials", "a/b/trials", "a/b/c/trials", "x/y/z/w/trials"]:
+        (tmp_path / sub).mkdir(parents=True)
+    assert store.find_result_dirs(tmp_path) == [tmp_path / "a", tmp_path / "a" / "b"]
+
+
 def test_find_result_dirs_follows_linked_folders_once(tmp_path):
     """A suite's folder linked in from elsewhere (scratch space) is found; a loop ends."""
     elsewhere = tmp_path / "scratch" / "offpolicy"

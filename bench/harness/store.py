@@ -269,13 +269,21 @@ def suite_dirs(root: str | Path) -> list[Path]:
     return dirs
 
 
+SEARCH_DEPTH = 2
+"""How far below a root results folders are looked for: `root/<suite>/` and one level more
+(`results/scratch/<suite>/`). Bounded, so a run whose results' parent is `/` or a home folder
+reads a few folders, not the whole disk."""
+
+
 def find_result_dirs(root: str | Path) -> list[Path]:
-    """Every folder under `root` (itself included) that holds a trials/ folder; experts/ and
-    hidden folders skipped. Linked folders are followed (a suite's folder linked in from
-    scratch space is still seen), each real folder once, so a link loop ends."""
+    """Every folder under `root` (itself included, at most `SEARCH_DEPTH` levels down) that
+    holds a trials/ folder; experts/ and hidden folders skipped. Linked folders are followed (a
+    suite's folder linked in from scratch space is still seen), each real folder once, so a
+    link loop ends."""
     if Path(root).name == "experts":
         return []
     found, seen = [], set()
+    top = len(Path(root).parts)
     for folder, subdirs, _ in os.walk(root, followlinks=True):
         real = os.path.realpath(folder)
         if real in seen:
@@ -284,6 +292,9 @@ def find_result_dirs(root: str | Path) -> list[Path]:
         seen.add(real)
         if TRIALS in subdirs:
             found.append(Path(folder))
+        if len(Path(folder).parts) - top >= SEARCH_DEPTH:
+            subdirs[:] = []  # its own trials/ counted, nothing below it
+            continue
         # Prune: never descend into expert folders, trials/ (records only) or hidden folders
         # (.venv, .git: a run with `--results NAME` prices by every record under `.`).
         subdirs[:] = sorted(
