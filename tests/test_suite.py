@@ -385,6 +385,7 @@ def test_bad_suites_fail_with_one_line(tmp_path, change, expected):
         ("envs:\n  a: 1\n  a: 2\n", "line 3, column 3: invalid YAML: duplicate key 'a'"),
         ("", "expected a mapping with keys envs, demos, algorithms, got None"),
         ("- 1\n- 2\n", "expected a mapping with keys envs, demos, algorithms, got [1, 2]"),
+        ("envs: " + "[" * 5000 + "]" * 5000 + "\n", "invalid YAML: nested too deeply"),
     ],
 )
 def test_bad_yaml_fails_with_one_line(tmp_path, text, expected):
@@ -645,3 +646,12 @@ def test_a_bad_settings_file_is_one_line(tmp_path, tuned, expected):
         load_suite(path)
     message = str(error.value)
     assert expected in message and "\n" not in message, message
+
+
+def test_yaml_merge_keys_share_settings_and_a_key_beside_one_overrides_it(tmp_path):
+    text = (
+        f"envs:\n  {PENDULUM}: &base {{budget: 1000}}\n  {HOPPER}: {{<<: *base, budget: 2000}}\n"
+        "demos: [1]\nalgorithms: [random]\nseeds: 1\n"
+    )
+    suite = load_suite(write(tmp_path, text))
+    assert [(e.env_id, e.budget) for e in suite.envs] == [(PENDULUM, 1000), (HOPPER, 2000)]

@@ -37,6 +37,9 @@ def load_suite(path: str | Path) -> Suite:
 # ---------------------------------------------------------------- reading
 
 
+MERGE_TAG = "tag:yaml.org,2002:merge"
+
+
 class _StrictLoader(yaml.SafeLoader):
     """SafeLoader that rejects duplicate keys (plain safe_load keeps the last one silently)."""
 
@@ -44,6 +47,8 @@ class _StrictLoader(yaml.SafeLoader):
 def _construct_mapping(loader: _StrictLoader, node: yaml.MappingNode) -> dict:
     seen: set = set()
     for key_node, _ in node.value:
+        if key_node.tag == MERGE_TAG:
+            continue  # `<<: *defaults`: merged keys may be overridden, as YAML says
         key = loader.construct_object(key_node)
         if key in seen:
             raise yaml.constructor.ConstructorError(
@@ -63,6 +68,8 @@ def _read_yaml(path: Path, what: str = "suite") -> Any:
         raise SuiteError(f"{path}: no such {what} file{hint}")
     try:
         return yaml.load(path.read_text(), Loader=_StrictLoader)  # a SafeLoader
+    except RecursionError:
+        raise SuiteError(f"{path}: invalid YAML: nested too deeply") from None
     except yaml.MarkedYAMLError as e:
         mark = e.problem_mark
         where = f"line {mark.line + 1}, column {mark.column + 1}: " if mark else ""
