@@ -339,3 +339,14 @@ def test_an_ok_record_without_a_finite_return_is_reported(finished_results, tmp_
     (results / "trials" / f"{trial_id}.json").write_text(json.dumps(raw))
     out = bench_here("plot", str(results))
     assert out.returncode == 0 and "1 records left out (1 no finite return)" in out.stderr
+
+
+@pytest.mark.slow
+def test_an_unreachable_dask_scheduler_is_one_line(tmp_path, bench_here):
+    pytest.importorskip("distributed")
+    suite = tmp_path / "s.yaml"
+    suite.write_text(GOOD)
+    args = ["--backend", "dask", "--scheduler", "tcp://127.0.0.1:1"]
+    out = bench_here("run", str(suite), "--results", str(tmp_path / "res"), *args)
+    assert out.returncode == 2 and "cannot reach the dask scheduler" in out.stderr
+    assert "Traceback" not in out.stderr and not list((tmp_path / "res").rglob("*.json"))

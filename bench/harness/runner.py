@@ -20,6 +20,7 @@ from pathlib import Path
 import joblib
 from tqdm import tqdm
 
+from bench.errors import BadInput
 from bench.harness import policies, registry, snapshots, store
 from bench.harness.costs import CostModel, TimeLimit
 from bench.harness.snapshots import SnapshotPlan
@@ -166,7 +167,10 @@ def run_suite(
         if backend == "dask":
             from distributed import Client
 
-            client = Client(scheduler) if scheduler else Client(processes=True)
+            try:
+                client = Client(scheduler, timeout="20s") if scheduler else Client(processes=True)
+            except OSError as e:  # no scheduler there, or one that does not answer
+                raise BadInput(f"cannot reach the dask scheduler at {scheduler}: {e}") from None
             ctx = joblib.parallel_config(backend="dask")
         else:
             ctx = joblib.parallel_config(backend=backend, n_jobs=jobs)
