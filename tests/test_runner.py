@@ -300,6 +300,23 @@ def test_time_left_is_the_expected_seconds_over_the_workers():
     todo = [spec("gaifo", 1), spec("gaifo", 2, budget=2000), spec("bco", 1)]
     assert costs.time_left(todo[:2], workers=1) == "~1.5 h"
     assert costs.time_left(todo, workers=2) == "~45 min +1 unpriced"
+    assert costs.time_left(todo[2:], workers=1) == "unknown (1 trials of kinds never timed)"
+
+
+def test_time_left_corrects_itself_by_this_runs_pace():
+    """Records made on a faster machine: once this run's first trial takes twice what they
+    predicted, the time left doubles."""
+
+    def spec(seed: int) -> TrialSpec:
+        return TrialSpec("t", PENDULUM, "gaifo", 0, seed, 1000, 1)
+
+    costs = CostModel.of([finished(spec(0), 600.0)])
+    todo = [spec(seed) for seed in range(2, 8)]
+    assert costs.time_left(todo, workers=1) == "~1.0 h"
+    costs.finished(finished(spec(1), 1200.0))  # this machine: twice as slow as expected
+    assert costs.pace_factor() == pytest.approx(2.0)
+    # 6 trials at the records' mean now (900 s), at this run's pace (x2): 3 hours
+    assert costs.time_left(todo, workers=1) == "~3.0 h"
 
 
 @pytest.mark.slow

@@ -73,6 +73,9 @@ class CostModel:
     done_before: dict[str, float] = field(default_factory=dict)
     """Trial id -> the fraction of its budget a snapshot has behind it (`bench.harness.snapshots`):
     a resumed trial costs only what it has left."""
+    pace: list[tuple[float, float]] = field(default_factory=list)
+    """(expected, taken) wall seconds of the trials this run has finished: how fast this machine
+    is today against the machines (or the load) the records were made on."""
 
     @classmethod
     def of(cls, records: Iterable[TrialResult]) -> CostModel:
@@ -88,6 +91,23 @@ class CostModel:
             with self.lock:
                 tally = self.done.setdefault((observed(spec), spec.env_id, spec.algorithm), Tally())
                 tally.add(record.wall_time, spec.budget, trained=record.env_steps > 0)
+
+    def finished(self, record: TrialResult) -> None:
+        """Learn from a record this run has just written: what it took against what it was
+        expected to take (`pace`), then its cost (`observe`)."""
+        expected = self.seconds(record.spec)
+        trained = record.status == "ok" and record.env_steps > 0 and not record.resumed_at
+        if trained and expected:
+            with self.lock:
+                self.pace.append((expected, record.wall_time))
+        self.observe(record)
+
+    def pace_factor(self) -> float:
+        """This run's trials' seconds over what they were expected to take (1: no trial yet)."""
+        with self.lock:
+            expected = sum(e for e, _ in self.pace)
+            taken = sum(t for _, t in self.pace)
+        return taken / expected if expected > 0 else 1.0
 
     def price(self, spec: TrialSpec) -> tuple[float | None, str]:
         """Expected wall seconds of `spec` (None: nothing to go by), and what that rests on."""
@@ -123,11 +143,15 @@ class CostModel:
 
     def time_left(self, specs: Iterable[TrialSpec], workers: int) -> str:
         """What `specs` should take on `workers` cores, for a progress bar: "~2.5 h", with
-        "+N unpriced" for trials with nothing to go by."""
+        "+N unpriced" for trials with nothing to go by; corrected by this run's pace (a machine
+        twice as slow as the records' doubles it after its first trials)."""
         expected = [self.seconds(spec) for spec in specs]
-        hours = sum(s for s in expected if s is not None) / 3600 / max(workers, 1)
-        text = f"~{hours:.1f} h" if hours >= 1 else f"~{hours * 60:.0f} min"
         unpriced = sum(s is None for s in expected)
+        if expected and unpriced == len(expected):
+            return f"unknown ({unpriced} trials of kinds never timed)"
+        priced = sum(s for s in expected if s is not None) * self.pace_factor()
+        hours = priced / 3600 / max(workers, 1)
+        text = f"~{hours:.1f} h" if hours >= 1 else f"~{hours * 60:.0f} min"
         return text + (f" +{unpriced} unpriced" if unpriced else "")
 
 

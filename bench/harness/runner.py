@@ -200,7 +200,7 @@ def run_suite(
                     store.write(results_dir, result)
                     if snapshot_plan is not None:  # a record (ok or failed) ends the trial
                         snapshot_plan.discard(result.trial_id)
-                    costs.observe(result)
+                    costs.finished(result)
                 if result.status == "ok":
                     done += 1
                 elif result.status == "failed":
