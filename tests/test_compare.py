@@ -83,3 +83,31 @@ def test_folders_without_overlap_give_one_line(tmp_path, cli):
     assert out.returncode == 2
     assert out.stderr.count("\n") == 1 and "share no env" in out.stderr
     assert sorted(p.read_bytes() for p in store.trials_dir(run).iterdir()) == before
+
+
+def test_only_like_is_compared_with_like(tmp_path, cli):
+    """GAIfO run at another budget in the run folder is no row of the comparison: the rest
+    is compared, and the output says how many cells had no like; folders that share no
+    setting at all are one line that names the budgets."""
+    run = tmp_path / "run"
+    store.copy_folder(REFERENCE, run)
+
+    def other_budget(result, algorithms=("gaifo",)):
+        if result.spec.algorithm not in algorithms:
+            return result
+        spec = dataclasses.replace(result.spec, budget=result.spec.budget * 2)
+        return dataclasses.replace(result, spec=spec)
+
+    rewrite(run, other_budget)
+    out = cli("compare", str(run), str(REFERENCE), "--reps", "200")
+    assert out.returncode == 0, out.stderr
+    found = verdicts(out.stdout)
+    assert not gaifo_rows(found) and found  # the rest still compared
+    assert "Not compared:" in out.stdout and "another budget" in out.stdout
+
+    every = tmp_path / "every"
+    store.copy_folder(REFERENCE, every)
+    rewrite(every, lambda r: other_budget(r, algorithms=(r.spec.algorithm,)))
+    out = cli("compare", str(every), str(REFERENCE), "--reps", "200")
+    assert out.returncode == 2 and out.stderr.count("\n") == 1
+    assert "budgets" in out.stderr, out.stderr

@@ -53,7 +53,13 @@ def pair_label(a: str, b: str, names: Names) -> str:
     return f"{names.label(a)} > {names.label(b)}"
 
 
-def compare_table(comparison: pd.DataFrame, run: str, reference: str, names: Names) -> str:
+def compare_table(
+    comparison: pd.DataFrame,
+    run: str,
+    reference: str,
+    names: Names,
+    unlike: tuple[int, int] = (0, 0),
+) -> str:
     """Markdown: per env, algorithm and demo count, IQM [95% CI] of the run and the reference,
     their difference and the verdict (stats.compare); then how many rows agree."""
     header = ["env", "algorithm", "demos", f"run ({run})", f"reference ({reference})"]
@@ -91,6 +97,11 @@ def compare_table(comparison: pd.DataFrame, run: str, reference: str, names: Nam
         " normalized with the reference's random and expert returns; a row differs when the 95%"
         " bootstrap CI of the IQM difference excludes 0.",
     ]
+    if any(unlike):
+        lines.append(
+            f"\nNot compared: {unlike[0]} cells of the run and {unlike[1]} of the reference have"
+            " no like in the other folder (another budget, demonstration count or settings)."
+        )
     return "\n".join(lines) + "\n"
 
 

@@ -274,13 +274,31 @@ class ComparisonError(BadInput, ValueError):
     """Two results folders that cannot be compared; the message is one line."""
 
 
-COMPARE_KEYS = ["env_id", "algorithm", "n_demos"]
+COMPARE_KEYS = ["env_id", "algorithm", "n_demos", "setting"]
+"""Cells compared: seeds of one setting (`TrialSpec.setting_id`: budget, settings, evaluation)
+against seeds of the same one, never two budgets or two configs row by row."""
 COMPARE_COLUMNS = [
     *COMPARE_KEYS,
     *("run_seeds", "run_iqm", "run_lo", "run_hi"),
     *("ref_seeds", "ref_iqm", "ref_lo", "ref_hi"),
     *("diff", "diff_lo", "diff_hi", "verdict"),
 ]
+
+
+def unlike(run: pd.DataFrame, ref: pd.DataFrame) -> tuple[int, int]:
+    """How many cells (`COMPARE_KEYS`) of the run and of the reference have no like in the
+    other: another budget, demonstration count or settings."""
+    a = set(run.groupby(COMPARE_KEYS).groups)
+    b = set(ref.groupby(COMPARE_KEYS).groups)
+    return len(a - b), len(b - a)
+
+
+def _why_unlike(run: pd.DataFrame, ref: pd.DataFrame) -> str:
+    """": budgets 2048 (run) and 4096 (reference)", where the folders' budgets differ."""
+    budgets = [sorted(set(frame["budget"])) for frame in (run, ref)]
+    if budgets[0] == budgets[1]:
+        return " (their settings differ)"
+    return f": budgets {budgets[0]} (run) and {budgets[1]} (reference)"
 
 
 def iqm(scores: np.ndarray, axis: int = -1) -> np.ndarray:
@@ -337,7 +355,10 @@ def compare(run: pd.DataFrame, ref: pd.DataFrame, reps: int = 2000, seed: int = 
         k for k in sorted(run_cells) if k in ref_cells and len(run_cells[k]) and len(ref_cells[k])
     ]
     if not shared:
-        raise ComparisonError("the two folders share no (env, algorithm, demo count) with scores")
+        raise ComparisonError(
+            "the two folders share no (env, algorithm, demo count) run with the same settings"
+            f" with scores{_why_unlike(run, ref)}"
+        )
     rows = []
     for i, key in enumerate(shared):
         a, b = run_cells[key], ref_cells[key]

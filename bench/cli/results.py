@@ -56,7 +56,8 @@ def _compare(args: argparse.Namespace) -> int:
     run_df, ref_df = normalize.normalized_alike(run, ref)
     comparison = stats.compare(run_df, ref_df, reps=args.reps)
     names = labels.Names.of(run_df, ref_df)
-    print(markdown.compare_table(comparison, str(args.run), str(args.reference), names))
+    unlike = stats.unlike(run_df, ref_df)
+    print(markdown.compare_table(comparison, str(args.run), str(args.reference), names, unlike))
     return 0
 
 

@@ -47,6 +47,7 @@ TRIAL_COLUMNS = [
     *ROLE_COLUMNS,
     "inputs",
     "trial_id",
+    "setting",
     "status",
     "return",
     "return_std",
@@ -365,7 +366,8 @@ def scan(results_dir: str | Path) -> Iterator[TrialResult]:
 def _spec_row(r: TrialResult) -> dict[str, Any]:
     """The spec's columns and ROLE_COLUMNS; `algorithm` is the name shown (a labelled
     variant's label) and `method` the registered algorithm it runs."""
-    row = {"trial_id": r.trial_id, **{c: getattr(r.spec, c) for c in SPEC_COLUMNS}}
+    row = {"trial_id": r.trial_id, "setting": r.spec.setting_id}
+    row |= {c: getattr(r.spec, c) for c in SPEC_COLUMNS}
     shown = {"algorithm": r.spec.shown, "method": r.spec.algorithm}
     described = {"role": r.role or "learner", "family": r.family, "label": r.label or r.spec.shown}
     return row | shown | described | {"observation": r.spec.observation or "states"}

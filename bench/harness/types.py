@@ -58,6 +58,15 @@ class TrialSpec:
         return self.label or self.algorithm
 
     @property
+    def setting_id(self) -> str:
+        """What decides the trial but its seed, hashed: trials that differ only in their seed
+        share it, so seeds of one setting are compared only with seeds of the same setting."""
+        spec = json.loads(self.identity())
+        del spec["seed"]
+        text = json.dumps(spec, sort_keys=True, separators=(",", ":"))
+        return hashlib.sha256(text.encode()).hexdigest()[:12]
+
+    @property
     def trial_id(self) -> str:
         return hashlib.sha256(self.identity().encode()).hexdigest()[:16]
 
@@ -117,6 +126,15 @@ class TrialResult:
     policy: bytes | None = field(default=None, repr=False)
     """The final policy's file (`bench.harness.policies`), on its way from the worker to the driver,
     which writes it beside the record; never part of the record itself."""
+
+    @property
+    def setting_id(self) -> str:
+        """What decides the trial but its seed, hashed: trials that differ only in their seed
+        share it, so seeds of one setting are compared only with seeds of the same setting."""
+        spec = json.loads(self.identity())
+        del spec["seed"]
+        text = json.dumps(spec, sort_keys=True, separators=(",", ":"))
+        return hashlib.sha256(text.encode()).hexdigest()[:12]
 
     @property
     def trial_id(self) -> str:
