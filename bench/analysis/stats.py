@@ -294,7 +294,7 @@ def unlike(run: pd.DataFrame, ref: pd.DataFrame) -> tuple[int, int]:
 
 
 def _why_unlike(run: pd.DataFrame, ref: pd.DataFrame) -> str:
-    """": budgets 2048 (run) and 4096 (reference)", where the folders' budgets differ."""
+    """ ": budgets 2048 (run) and 4096 (reference)", where the folders' budgets differ."""
     budgets = [sorted(set(frame["budget"])) for frame in (run, ref)]
     if budgets[0] == budgets[1]:
         return " (their settings differ)"
