@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import os
 import re
 from collections.abc import Callable
 from pathlib import Path
@@ -45,11 +46,34 @@ def jobs_count(text: str) -> int:
 
 
 def folder(text: str) -> Path:
-    """argparse type: a folder to write into, which may not exist yet but is no file."""
+    """argparse type: a folder to write into, which may not exist yet but is no file, and
+    which this user can write (checked before any work, without creating anything)."""
     path = Path(text)
     if path.exists() and not path.is_dir():
         raise argparse.ArgumentTypeError(f"{text} is a file, not a folder")
+    _writable(path, text)
     return path
+
+
+def out_file(text: str) -> Path:
+    """argparse type: a file to write, whose folder this user can write (or create)."""
+    path = Path(text)
+    if path.is_dir():
+        raise argparse.ArgumentTypeError(f"{text} is a folder, not a file")
+    _writable(path.parent, text)
+    return path
+
+
+def _writable(path: Path, text: str) -> None:
+    """Raise ArgumentTypeError unless `path`, or the nearest folder above it that exists (where
+    it would be created), is a folder this user may write into."""
+    existing = path
+    while not existing.exists() and existing != existing.parent:
+        existing = existing.parent
+    if not existing.is_dir():
+        raise argparse.ArgumentTypeError(f"{text}: {existing} is a file, not a folder")
+    if not os.access(existing, os.W_OK | os.X_OK):
+        raise argparse.ArgumentTypeError(f"{text}: {existing} is not writable")
 
 
 _DURATION = re.compile(r"(?:(\d+(?:\.\d+)?)h)?(?:(\d+(?:\.\d+)?)m)?(?:(\d+(?:\.\d+)?)s)?")

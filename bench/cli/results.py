@@ -7,7 +7,7 @@ import sys
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from bench.cli.args import at_least, folder
+from bench.cli.args import at_least, folder, out_file
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -82,7 +82,10 @@ def add(sub: argparse._SubParsersAction) -> None:
     )
     plot.add_argument("results_dir", help="e.g. results/ or results/quick")
     plot.add_argument(
-        "--out", metavar="FILE", help="figure path (.png; a .pdf is written beside it)"
+        "--out",
+        metavar="FILE",
+        type=out_file,
+        help="figure path (.png; a .pdf is written beside it)",
     )
     plot.set_defaults(func=_plot)
 

@@ -7,7 +7,7 @@ import importlib.util
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from bench.cli.args import at_least
+from bench.cli.args import at_least, out_file
 
 if TYPE_CHECKING:
     pass
@@ -52,7 +52,7 @@ def add(sub: argparse._SubParsersAction) -> None:
         " normalized return its record scored.",
     )
     vid.add_argument("results", type=Path, help="a results folder, e.g. results/pybullet")
-    vid.add_argument("--out", type=Path, required=True, help="FILE.gif or FILE.mp4")
+    vid.add_argument("--out", type=out_file, required=True, help="FILE.gif or FILE.mp4")
     vid.add_argument("--env", metavar="ID", help="the env (needed where the folder has several)")
     vid.add_argument(
         "--algorithm",
