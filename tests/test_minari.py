@@ -245,3 +245,23 @@ def test_minaris_own_mujoco_datasets_load_as_demonstrations(exported_v5, tmp_pat
     assert states.n_episodes == 5 and states.obs_dim == 4
     suite = load_suite(write_suite(tmp_path, name, "random, expert, gaifo", PENDULUM_V5))
     assert {s.dataset for s in suite.trials} == {name}
+
+
+def test_an_export_cut_off_mid_write_leaves_no_dataset(module_cache, tmp_path, monkeypatch):
+    """A dataset appears whole or not at all: an export that dies while Minari writes leaves
+    nothing where the dataset goes, and the next export succeeds."""
+    real = minari.create_dataset_from_buffers
+
+    def dies_mid_write(*args, **kwargs):
+        real(*args, **kwargs)  # everything written, then the process "dies" before it is done
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(minari, "create_dataset_from_buffers", dies_mid_write)
+    with pytest.raises(KeyboardInterrupt):
+        minari_io.export(PENDULUM, tmp_path, 20.0, 1000.0)
+    assert not (tmp_path / minari_io.dataset_id(PENDULUM)).exists()
+    assert not list(tmp_path.glob(".export-*"))
+    monkeypatch.setattr(minari, "create_dataset_from_buffers", real)
+    name = minari_io.export(PENDULUM, tmp_path, 20.0, 1000.0)
+    monkeypatch.setenv("MINARI_DATASETS_PATH", str(tmp_path))
+    assert minari.load_dataset(name).total_episodes == demos.POOL_SIZE

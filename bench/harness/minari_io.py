@@ -11,6 +11,8 @@ from __future__ import annotations
 
 import contextlib
 import os
+import shutil
+import tempfile
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -86,8 +88,12 @@ def export(env_id: str, root: str | Path, random_return: float, expert_return: f
         raise DatasetError(f"{root / name} already exists; remove it or export to another folder")
     pool = dict(np.load(demos.ensure_pool(env_id), allow_pickle=False))
     env = gym.make(env_id)
+    root.mkdir(parents=True, exist_ok=True)
+    # Written whole beside its place, then renamed into it: a run killed mid-export leaves a
+    # hidden folder behind, never a half-written dataset that blocks the next export.
+    staging = Path(tempfile.mkdtemp(dir=root, prefix=".export-"))
     try:
-        with _datasets_root(root), _quiet():
+        with _datasets_root(staging), _quiet():
             minari.create_dataset_from_buffers(
                 dataset_id=name,
                 buffer=episode_buffers(pool),
@@ -104,8 +110,11 @@ def export(env_id: str, root: str | Path, random_return: float, expert_return: f
                 ref_min_score=float(random_return),
                 ref_max_score=float(expert_return),
             )
+        (root / name).parent.mkdir(parents=True, exist_ok=True)
+        os.rename(staging / name, root / name)
     finally:
         env.close()
+        shutil.rmtree(staging, ignore_errors=True)
     return name
 
 
