@@ -354,3 +354,32 @@ def test_an_unreachable_dask_scheduler_is_one_line(tmp_path, bench_here):
     out = bench_here("run", str(suite), "--results", str(tmp_path / "res"), *args)
     assert out.returncode == 2 and "cannot reach the dask scheduler" in out.stderr
     assert "Traceback" not in out.stderr and not list((tmp_path / "res").rglob("*.json"))
+
+
+@pytest.mark.parametrize("command", ["report", "plot"])
+def test_a_full_disk_is_one_line_and_leaves_nothing_partial(command, tmp_path):
+    """Writes refused by the machine (here a file-size limit, as a full disk refuses them)
+    are one line and exit 2; what was being written is not left half-written."""
+    import resource
+    import subprocess
+    import sys
+
+    from bench.harness import store
+
+    reference = Path(__file__).parents[1] / "results" / "quick"
+    store.copy_folder(reference, tmp_path / "quick")
+    out_arg = {"report": ["--out", str(tmp_path / "rep")], "plot": []}[command]
+
+    def small_files():
+        resource.setrlimit(resource.RLIMIT_FSIZE, (20_000, 20_000))
+
+    out = subprocess.run(
+        [sys.executable, "-m", "bench.cli", command, str(tmp_path / "quick"), *out_arg],
+        capture_output=True,
+        text=True,
+        preexec_fn=small_files,
+    )
+    assert out.returncode == 2 and out.stderr.count("\n") == 1, out.stderr
+    assert "cannot write" in out.stderr and "File too large" in out.stderr
+    big = [p for p in tmp_path.rglob("*") if p.is_file() and p.stat().st_size >= 20_000]
+    assert all(p.parent.name == "trials" or p.name.endswith(".json") for p in big), big

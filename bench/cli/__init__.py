@@ -6,6 +6,7 @@ subcommands to the parser; argument types and the one-line parser are in `args`.
 from __future__ import annotations
 
 import argparse
+import errno
 import os
 import sys
 import warnings
@@ -19,13 +20,18 @@ from bench.errors import BadInput
 def build_parser() -> argparse.ArgumentParser:
     parser = OneLineParser(
         prog="bench",
-        description="ifo-bench: compare imitation-from-observation algorithms on PyBullet.",
+        description="ifo-bench: compare imitation-from-observation algorithms on MuJoCo and"
+        " PyBullet.",
     )
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
 
     for command in (run, results, experts, video):
         command.add(sub)
     return parser
+
+
+WRITE_FAILURES = {errno.ENOSPC, errno.EDQUOT, errno.EACCES, errno.EPERM, errno.EROFS, errno.EFBIG}
+"""Errors of a write the machine refused, reported in one line rather than as a traceback."""
 
 
 def _one_line_warning(message, category, filename, lineno, line=None) -> str:
@@ -40,6 +46,14 @@ def main(argv: list[str] | None = None) -> int:
         return func(args)
     except (BadInput, FileNotFoundError) as e:  # bench's own errors, and a missing path
         print(f"bench: error: {e}", file=sys.stderr)
+        return 2
+    except OSError as e:
+        if e.errno not in WRITE_FAILURES:
+            raise
+        # A write the machine refused (disk full, no permission, read-only): what was being
+        # written is left out whole (`bench.atomic`), and the user is told where and why.
+        where = f" {e.filename}" if e.filename else ""
+        print(f"bench: error: cannot write{where}: {e.strerror or e}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
         print("bench: interrupted", file=sys.stderr)
