@@ -91,6 +91,11 @@ class AdversarialConfig(ImitationTRPOConfig, DiscriminatorConfig):
         for name in ("disc_steps", "disc_minibatch"):
             if getattr(self, name) < 1:
                 raise ValueError(f"{name} must be >= 1, not {getattr(self, name)}")
+        if self.disc_minibatch > self.batch_size:  # D draws its policy side from one batch
+            raise ValueError(
+                f"disc_minibatch ({self.disc_minibatch}) is more than a TRPO batch holds"
+                f" ({self.n_envs} x {self.steps_per_env} = {self.batch_size} steps)"
+            )
         if not 0.5 <= self.disc_pause_above <= 1:
             raise ValueError(f"disc_pause_above must be in [0.5, 1], not {self.disc_pause_above}")
         if self.reward not in REWARDS:

@@ -55,6 +55,10 @@ BAD_SUITES = {
         GOOD.replace("2048", "1000").replace("[random, expert]", "[random, expert, survival]"),
         "1000 env steps are fewer than survival needs to train (2048)",
     ),
+    "a minibatch no batch can fill": (
+        GOOD.replace("[random, expert]", "[random, expert, {gaifo: {disc_minibatch: 1000000000}}]"),
+        "more than a TRPO batch holds",
+    ),
     "a zero-width layer": (
         GOOD.replace("[random, expert]", "[random, expert, {gaifo: {disc_hidden: [64, 0]}}]"),
         "disc_hidden[1] must be >= 1",
