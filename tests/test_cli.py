@@ -387,3 +387,13 @@ def test_a_full_disk_is_one_line_and_leaves_nothing_partial(command, tmp_path):
     assert "cannot write" in out.stderr and "File too large" in out.stderr
     big = [p for p in tmp_path.rglob("*") if p.is_file() and p.stat().st_size >= 20_000]
     assert all(p.parent.name == "trials" or p.name.endswith(".json") for p in big), big
+
+
+def test_a_demonstration_cache_under_a_file_is_one_line(tmp_path, bench_here, monkeypatch):
+    (tmp_path / "file").write_text("mine")
+    monkeypatch.setattr("bench.harness.paths.CACHE_DIR", tmp_path / "file" / "cache")
+    suite = tmp_path / "s.yaml"
+    suite.write_text(GOOD)
+    out = bench_here("run", str(suite), "--results", str(tmp_path / "res"))
+    assert out.returncode == 2 and out.stderr.count("\n") == 1, out.stderr
+    assert "IFO_BENCH_CACHE" in out.stderr and not (tmp_path / "res").exists()

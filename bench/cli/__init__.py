@@ -30,7 +30,15 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-WRITE_FAILURES = {errno.ENOSPC, errno.EDQUOT, errno.EACCES, errno.EPERM, errno.EROFS, errno.EFBIG}
+WRITE_FAILURES = {
+    errno.ENOSPC,
+    errno.EDQUOT,
+    errno.EACCES,
+    errno.EPERM,
+    errno.EROFS,
+    errno.EFBIG,
+    errno.ENOTDIR,
+}
 """Errors of a write the machine refused, reported in one line rather than as a traceback."""
 
 

@@ -27,6 +27,10 @@ def _run(args: argparse.Namespace) -> int:
     from bench.harness.snapshots import FOLDER
 
     results = Path(args.results) if args.results else Path("results") / suite.name
+    cache = paths.CACHE_DIR  # demonstration pools are recorded there before any trial
+    existing = next((p for p in (cache, *cache.parents) if p.exists()), cache)
+    if not existing.is_dir():
+        raise BadInput(f"the demonstration cache {cache} (IFO_BENCH_CACHE) is under a file")
     shipped = paths.shipped_folder(results)
     if shipped is not None:
         raise BadInput(
