@@ -41,6 +41,10 @@ def _run(args: argparse.Namespace) -> int:
     jobs = args.jobs if args.jobs is not None else suite.runner.jobs
     if args.estimate:
         return _estimate(specs, results, jobs)
+    from bench.harness import minari_io
+
+    for env_id, dataset in sorted({(s.env_id, s.dataset) for s in specs if s.dataset}):
+        minari_io.ensure_pool(dataset, env_id)  # read whole now: a broken one fails before any run
     with store.claim(results):
         print(f"suite {suite.name}: {len(specs)} trials -> {results}/", file=sys.stderr)
         # Priced as --estimate prices them; a time limit counts from now on.
