@@ -91,6 +91,7 @@ def test_a_video_has_a_panel_per_policy_and_a_frame_per_step(finished, tmp_path,
         (["--demos", "7"], "no trials with 7 demos"),
         (["--env", "HopperBulletEnv-v0"], "no trials of HopperBulletEnv-v0"),
         (["--out", "v.png"], "must end in .gif or .mp4"),
+        (["--steps", "100000", "--size", "400"], "GiB of frames in memory"),
     ],
 )
 def test_a_video_of_nothing_is_one_line(finished, tmp_path, bench_here, args, message):

@@ -171,6 +171,10 @@ def write(frames: list[np.ndarray], out: str | Path, fps: int = 30) -> Path:
     return out
 
 
+MAX_BYTES = 2 * 2**30
+"""A video's frames are held in memory until it is written: refused above this."""
+
+
 def video(
     results_dir: str | Path,
     out: str | Path,
@@ -187,6 +191,13 @@ def video(
     `episode_seed` resets every panel's env alike (default: the first evaluation episode of
     seed 0, as the runner scored it)."""
     chosen = panels(results_dir, env_id, algorithms, n_demos, seed)
+    held = len(chosen) * (steps + 1) * size * size * 3 * 2  # the films, then the composed frames
+    if held > MAX_BYTES:
+        raise VideoError(
+            f"video: {len(chosen)} panels of {steps} steps at {size} x {size} would hold"
+            f" {held / 2**30:.1f} GiB of frames in memory (at most {MAX_BYTES / 2**30:.0f});"
+            " film fewer steps, smaller panels, or fewer algorithms"
+        )
     films = [rollout(p, p.env_id, size, steps, episode_seed) for p in chosen]
     titles = [p.title for p in chosen]
     return write(compose(titles, films), out, fps), titles
