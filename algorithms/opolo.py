@@ -26,7 +26,6 @@ as the paper's does.
 
 from __future__ import annotations
 
-import copy
 from dataclasses import dataclass
 from typing import Any
 
@@ -36,7 +35,6 @@ import torch.nn.functional as F
 from torch import nn
 
 from algorithms.offpolicy import (
-    OffPolicyConfig,
     expert_replay,
     sac_budget,
     sample_of,
@@ -50,22 +48,17 @@ from bench.imitation.discriminator import (
     discriminator_log,
     discriminator_loss,
 )
-from bench.rl import resume, sac
+from bench.rl import sac
 from bench.rl.networks import RunningNorm, mlp
+from bench.rl.td3 import TD3, TD3Config
 from bench.validate import at_least
 
 
 @dataclass
-class OPOLOConfig(OffPolicyConfig, DiscriminatorConfig):
-    hidden: tuple[int, ...] = (400, 300)
-    batch_size: int = 100
-    learning_starts: int = 10_000
-    absorbing: bool = False
-    exploration_noise: float = 0.1
-    """Std of the Gaussian added to the actor's action while collecting, as a fraction of
-    half the action range."""
-    policy_delay: int = 2
-    """Critic updates per actor (and target) update, as TD3."""
+class OPOLOConfig(TD3Config, DiscriminatorConfig):
+    """TD3's settings as the authors run it (shared with OPOLO's controls, `algorithms.td3`),
+    D's, and the dual form's and the inverse model's."""
+
     alpha: float = 0.1
     """Weight of the dual form's initial-state term, 2 alpha (1 - gamma) E[min Q(s, pi(s))]."""
     inverse_weight: float = 0.1
@@ -92,9 +85,8 @@ class OPOLOConfig(OffPolicyConfig, DiscriminatorConfig):
     def __post_init__(self) -> None:
         super().__post_init__()
         DiscriminatorConfig.__post_init__(self)
-        at_least(self, 0, "exploration_noise", "alpha", "inverse_weight")
-        at_least(self, 0, "inverse_l2", "inverse_pretrain")
-        at_least(self, 1, "policy_delay", "disc_steps", "inverse_steps", "train_every")
+        at_least(self, 0, "alpha", "inverse_weight", "inverse_l2", "inverse_pretrain")
+        at_least(self, 1, "disc_steps", "inverse_steps", "train_every")
 
 
 def normalized_pair(norm: RunningNorm, batch: sac.ReplayBatch) -> torch.Tensor:
@@ -129,30 +121,15 @@ class InverseModel(nn.Module):
         return self.net(normalized_pair(self.norm, batch))
 
 
-class OPOLO(resume.Stateful):
+class OPOLO(TD3):
     """TD3 on D's reward with the dual term and the inverse-model regularizer; the loop is
-    SAC's (`bench.rl.sac.train`), which calls `explore` and `update`."""
+    SAC's (`bench.rl.sac.train`), which calls `explore` (TD3's) and `update`."""
 
     def __init__(self, task: Task, demos: Demos, cfg: OPOLOConfig, seed: int) -> None:
-        torch.manual_seed(seed)  # built on the CPU and then moved: the same weights anywhere
-        self.cfg, self.device = cfg, sac.usable_device(cfg.device)
-        obs_dim, act_dim = task.obs_dim, task.act_dim
-        low, high = task.action_low, task.action_high
         # A deterministic actor: SAC's network, read through its mean (`Actor.act`), so the
         # kept policy is the same kind of file.
-        self.actor = sac.Actor(obs_dim, act_dim, cfg.hidden, low, high)
-        self.critic = sac.TwinQ(obs_dim, act_dim, cfg.hidden)
-        self.actor, self.critic = self.actor.to(self.device), self.critic.to(self.device)
-        self.actor_target = copy.deepcopy(self.actor)
-        self.critic_target = copy.deepcopy(self.critic)
-        self.actor_opt = torch.optim.Adam(self.actor.parameters(), lr=cfg.lr, foreach=True)
-        self.critic_opt = torch.optim.Adam(self.critic.parameters(), lr=cfg.lr, foreach=True)
-        self.buffer = sac.ReplayBuffer(obs_dim, act_dim, cfg.buffer_size, seed)
-        # Listed once, as SAC lists its own: targets first, then what each follows.
-        self.critic_params = list(self.critic.parameters())
-        self.targets = [*self.actor_target.parameters(), *self.critic_target.parameters()]
-        self.followed = [*self.actor.parameters(), *self.critic_params]
-
+        obs_dim, act_dim = task.obs_dim, task.act_dim
+        super().__init__(obs_dim, act_dim, task.action_low, task.action_high, cfg, seed)
         self.expert = expert_replay(demos, None, act_dim, absorbing=False).to(self.device)
         # D's and M's scale: the expert's states, fixed
         norm = RunningNorm.of(np.concatenate(demos.observations))
@@ -162,31 +139,13 @@ class OPOLO(resume.Stateful):
         self.inverse_opt = torch.optim.Adam(
             self.inverse.net.parameters(), lr=cfg.disc_lr, weight_decay=cfg.inverse_l2
         )
-        self.gen = torch.Generator().manual_seed(seed + 3)
-        self.updates = 0
-        self.stats: dict[str, float] = {}
 
     def parts(self) -> dict[str, Any]:
         """Everything that changes as it learns (`bench.rl.resume`), but for counters."""
-        networks = ("actor", "critic", "actor_target", "critic_target", "disc", "inverse")
-        optimizers = ("actor_opt", "critic_opt", "disc_opt", "inverse_opt")
-        return {name: getattr(self, name) for name in (*networks, *optimizers, "buffer", "gen")}
+        mine = ("disc", "inverse", "disc_opt", "inverse_opt")
+        return {**super().parts(), **{name: getattr(self, name) for name in mine}}
 
-    def state_dict(self) -> dict[str, Any]:
-        return {**super().state_dict(), "updates": self.updates, "stats": self.stats}
-
-    def load_state_dict(self, state: dict[str, Any]) -> None:
-        super().load_state_dict(state)
-        self.updates, self.stats = state["updates"], dict(state["stats"])
-
-    # ------------------------------------------------------------ acting and rewards
-
-    def explore(self, obs: torch.Tensor) -> torch.Tensor:
-        action = self.actor.act(obs)
-        noise = torch.randn(action.shape, generator=self.gen).to(self.device)
-        noise = noise * self.cfg.exploration_noise
-        low, high = self.actor.centre - self.actor.scale, self.actor.centre + self.actor.scale
-        return torch.maximum(torch.minimum(action + noise * self.actor.scale, high), low)
+    # ------------------------------------------------------------ rewards
 
     @torch.no_grad()
     def reward(self, batch: sac.ReplayBatch) -> torch.Tensor:

@@ -33,6 +33,8 @@ algorithms:
   - {{algorithm: survival-sac, {TINY_SAC}}}
   - {{algorithm: oracle-sac, {TINY_SAC}}}
   - {{algorithm: opolo, {TINY_SAC}, train_every: 200, inverse_pretrain: 50, disc_steps: 2}}
+  - {{algorithm: survival-td3, {TINY_SAC}}}
+  - {{algorithm: oracle-td3, {TINY_SAC}}}
 seeds: [0]
 eval_episodes: 2
 curve_points: 3

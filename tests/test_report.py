@@ -182,6 +182,7 @@ def test_improvement_pairs_set_gaifo_against_all_and_all_against_their_floor():
         ("gail-sac", "survival-sac")
     ]
     assert pairs(["opolo", "survival", "survival-sac"]) == []  # no TD3 floor ran
+    assert pairs(["opolo", "survival", "survival-td3"]) == [("opolo", "survival-td3")]
 
 
 def test_distance_to_the_expert_states(written, table_rows):
@@ -392,6 +393,7 @@ def test_the_ceiling_is_of_the_learners_family_and_its_variant_suffix_else_the_p
     assert ceiling_of("gaifo-sac", sac) == "oracle-sac"  # each optimizer's own ceiling
     assert ceiling_of("gaifo", sac) == "oracle"
     assert ceiling_of("opolo", sac) is None  # TD3's: neither TRPO's nor SAC's oracle
+    assert ceiling_of("opolo", sac | {"oracle-td3": "oracle-td3"}) == "oracle-td3"
 
 
 def test_screen_variants_on_one_env_each_leave_the_pooled_statistics_not_the_others():
