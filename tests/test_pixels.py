@@ -98,9 +98,10 @@ def tiny_suite(tmp_path, monkeypatch, observation: str) -> list:
     (`observation` may carry more env settings: "pixels, frame_size: 32")."""
     monkeypatch.setattr(demos, "POOL_SIZE", 2)  # filming 25 episodes at 64x64 takes ~15 s
     tiny = "{n_envs: 2, steps_per_env: 64}"
+    gaifo = "{n_envs: 2, steps_per_env: 64, disc_minibatch: 64}"  # D's draws: one batch at most
     (tmp_path / "s.yaml").write_text(
         f"name: tiny\nenvs: {{{PENDULUM}: {{budget: 256, observation: {observation}}}}}\n"
-        f"demos: [1]\nalgorithms: [random, expert, gaifo: {tiny}, survival: {tiny},"
+        f"demos: [1]\nalgorithms: [random, expert, gaifo: {gaifo}, survival: {tiny},"
         f" tcn: {{n_envs: 2, steps_per_env: 64, embed_steps: 5}}]\n"
         "seeds: [0]\neval_episodes: 2\n"
     )
