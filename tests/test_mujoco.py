@@ -105,18 +105,20 @@ def test_a_video_of_a_mujoco_task(finished, tmp_path, cli):
     assert frames.std() > 0
 
 
-def test_pybullet_is_only_imported_for_a_pybullet_id():
+def test_pybullet_is_only_imported_for_a_pybullet_id(tmp_path):
     """A MuJoCo trial's process never imports PyBullet, so the package runs where PyBullet has
-    no wheels."""
-    code = (
-        "import sys; from bench.harness import envs; envs.check_env_id('Hopper-v5');"
-        " e = envs.make('Hopper-v5', 0); e.step(e.action_space.sample());"
-        " print('pybullet' in sys.modules, 'pybullet_envs_gymnasium' in sys.modules)"
-    )
+    no wheels; and MuJoCo's notes on gymnasium's models (Ant's) neither print nor leave a
+    MUJOCO_LOG.TXT in the working folder."""
     import subprocess
     import sys
 
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    code = (
+        "import sys; from bench.harness import envs; envs.check_env_id('Ant-v5');"
+        " e = envs.make('Ant-v5', 0); e.step(e.action_space.sample());"
+        " print('pybullet' in sys.modules, 'pybullet_envs_gymnasium' in sys.modules)"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=tmp_path)
     assert out.returncode == 0, out.stderr
     assert out.stdout.split() == ["False", "False"]
-    assert out.stderr == ""  # MuJoCo's model compiler notes stay quiet too
+    assert out.stderr == ""
+    assert not list(tmp_path.iterdir())  # no MUJOCO_LOG.TXT

@@ -126,6 +126,8 @@ def make(env_id: str, seed: int, pixels: PixelConfig | None = None) -> gym.Env:
     (`pixels.shape` restores them), and the simulator state rides along in `info["state"]`.
     """
     check_env_id(env_id)
+    if is_mujoco(env_id):
+        _route_mujoco_warnings()
     with quiet_stdout():
         if pixels is None:
             env = gym.make(env_id, disable_env_checker=True)
@@ -149,6 +151,31 @@ def make(env_id: str, seed: int, pixels: PixelConfig | None = None) -> gym.Env:
         )
     env.action_space.seed(seed)
     return env
+
+
+KNOWN_MUJOCO_NOTES = ("compiler attribute 'settotalmass' is deprecated",)
+"""What MuJoCo says of gymnasium's own model files on every load (Ant's): nothing to act on."""
+_mujoco_warnings_routed = False
+
+
+def _route_mujoco_warnings() -> None:
+    """MuJoCo writes its warnings to MUJOCO_LOG.TXT in the working folder; route them to
+    Python's warnings instead (once per process), leaving out the known notes on gymnasium's
+    models, so no log file lands in a user's folder and a real one (an unstable simulation)
+    is still seen."""
+    global _mujoco_warnings_routed
+    if _mujoco_warnings_routed:
+        return
+    import warnings
+
+    import mujoco
+
+    def warn(message: str) -> None:
+        if not any(note in message for note in KNOWN_MUJOCO_NOTES):
+            warnings.warn(f"MuJoCo: {message}", RuntimeWarning, stacklevel=2)
+
+    mujoco.set_mju_user_warning(warn)
+    _mujoco_warnings_routed = True
 
 
 def is_mujoco(env_id: str) -> bool:
