@@ -11,19 +11,19 @@ from bench.harness.runner import run_suite
 from bench.harness.suite import load_suite
 
 PENDULUM_V5 = "InvertedPendulum-v5"
-TINY_TRPO = "n_envs: 2, steps_per_env: 500"
-TINY_SAC = "learning_starts: 1000, batch_size: 64, hidden: [32, 32]"
+TINY_TRPO = "n_envs: 2, steps_per_env: 250"
+TINY_SAC = "learning_starts: 1500, batch_size: 64, hidden: [32, 32]"  # 500 updates
 SUITE = f"""
 name: mujoco-tiny
 envs:
-  {PENDULUM_V5}: {{budget: 3000}}
+  {PENDULUM_V5}: {{budget: 2000}}
 demos: [2]
 algorithms:
   - random
   - expert
   - {{algorithm: gaifo, {TINY_TRPO}, disc_minibatch: 64}}
   - {{algorithm: gail, {TINY_TRPO}, disc_minibatch: 64}}
-  - {{algorithm: bco, pre_demo_steps: 1000, n_envs: 2, inverse_steps: 30,
+  - {{algorithm: bco, pre_demo_steps: 1000, n_envs: 2, inverse_steps: 30, alpha: 0.5,
       inverse_refit_steps: 10, bc_steps: 20, minibatch: 64}}
   - {{algorithm: tcn, {TINY_TRPO}, embed_steps: 20, embed_minibatch: 32}}
   - {{algorithm: survival, {TINY_TRPO}}}
