@@ -45,12 +45,16 @@ class TrialSpec:
     curve_points: int = CURVE_POINTS
     """Learning-curve evaluations during training."""
 
-    def identity(self) -> str:
-        """What decides the trial's outcome, as canonical JSON: every field but `suite` and
-        `label`, which only say who asked for it and what it is called there."""
+    def decisive(self) -> dict[str, Any]:
+        """Every field but `suite` and `label`, which only say who asked for the trial and what
+        it is called there."""
         spec = asdict(self)
         del spec["suite"], spec["label"]
-        return json.dumps(spec, sort_keys=True, separators=(",", ":"))
+        return spec
+
+    def identity(self) -> str:
+        """What decides the trial's outcome (`decisive`), as canonical JSON."""
+        return _canonical(self.decisive())
 
     @property
     def shown(self) -> str:
@@ -61,10 +65,9 @@ class TrialSpec:
     def setting_id(self) -> str:
         """What decides the trial but its seed, hashed: trials that differ only in their seed
         share it, so seeds of one setting are compared only with seeds of the same setting."""
-        spec = json.loads(self.identity())
+        spec = self.decisive()
         del spec["seed"]
-        text = json.dumps(spec, sort_keys=True, separators=(",", ":"))
-        return hashlib.sha256(text.encode()).hexdigest()[:12]
+        return hashlib.sha256(_canonical(spec).encode()).hexdigest()[:12]
 
     @property
     def trial_id(self) -> str:
@@ -72,6 +75,11 @@ class TrialSpec:
 
     def __hash__(self) -> int:
         return hash(self.identity())
+
+
+def _canonical(value: Any) -> str:
+    """JSON that two equal values always write alike: keys sorted, no spaces."""
+    return json.dumps(value, sort_keys=True, separators=(",", ":"))
 
 
 @dataclass(frozen=True)
@@ -126,15 +134,6 @@ class TrialResult:
     policy: bytes | None = field(default=None, repr=False)
     """The final policy's file (`bench.harness.policies`), on its way from the worker to the driver,
     which writes it beside the record; never part of the record itself."""
-
-    @property
-    def setting_id(self) -> str:
-        """What decides the trial but its seed, hashed: trials that differ only in their seed
-        share it, so seeds of one setting are compared only with seeds of the same setting."""
-        spec = json.loads(self.identity())
-        del spec["seed"]
-        text = json.dumps(spec, sort_keys=True, separators=(",", ":"))
-        return hashlib.sha256(text.encode()).hexdigest()[:12]
 
     @property
     def trial_id(self) -> str:
