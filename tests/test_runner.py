@@ -147,6 +147,87 @@ def test_a_trial_whose_process_dies_is_that_trials_failure(tmp_path, cli, instal
     assert "0 trials done, 0 failed, 8 already finished" in again.stdout
 
 
+BEATING = (
+    "import os, time\nfrom dataclasses import dataclass\n"
+    "from bench.harness.registry import register\n\n"
+    "@dataclass\nclass C:\n    pass\n\n"
+    "@register('beating', config=C, inputs='none')\n"
+    "def train(task, demos, budget, seed, logger, config):\n"
+    "    beat = os.path.join(os.environ['BEATS'], str(seed))\n"
+    "    while True:  # trains forever, writing as a trial's snapshots are written\n"
+    "        with open(beat, 'a') as f:\n            f.write('.')\n"
+    "        time.sleep(0.02)\n"
+)
+
+
+def _lock_is_free(folder: Path) -> bool:
+    import fcntl
+
+    with open(folder / store.LOCK, "a") as handle:
+        try:
+            fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            return False
+        fcntl.flock(handle, fcntl.LOCK_UN)
+        return True
+
+
+@pytest.mark.parametrize("jobs", ["1", "2"])
+@pytest.mark.slow
+def test_once_a_terminated_runs_lock_is_free_nothing_of_it_still_writes(
+    tmp_path, install_plugin, jobs
+):
+    """SIGTERM to `bench run` (a scheduler's end of a job): the run says so and exits 143, and
+    by the time its folder's lock can be taken, none of its trials is still writing; so a
+    second run into the folder never shares it with orphans."""
+    env = install_plugin(
+        tmp_path / "site", "beating", "beating = beating_ifo", {"beating_ifo": BEATING}
+    )
+    beats = tmp_path / "beats"
+    beats.mkdir()
+    suite = write_suite(
+        tmp_path,
+        "beat",
+        f"envs: {{{PENDULUM}: {{budget: 1000}}}}\ndemos: [1]\nalgorithms: [beating]\nseeds: 2\n",
+    )
+    results = tmp_path / "res"
+    for _ in range(3):  # the race this guards against was intermittent
+        proc = subprocess.Popen(
+            [
+                sys.executable,
+                "-m",
+                "bench.cli",
+                "run",
+                str(suite),
+                "--results",
+                str(results),
+                "--jobs",
+                jobs,
+            ],
+            stdout=subprocess.DEVNULL,
+            stderr=subprocess.PIPE,
+            text=True,
+            env={**env, "BEATS": str(beats)},
+            start_new_session=True,
+        )
+        deadline = time.time() + 120
+        want = 2 if jobs == "2" else 1
+        while len(list(beats.iterdir())) < want and time.time() < deadline:
+            time.sleep(0.05)
+        assert len(list(beats.iterdir())) == want, "the trials should be running"
+        proc.send_signal(signal.SIGTERM)
+        while not _lock_is_free(results):
+            assert time.time() < deadline, "the run should end on SIGTERM"
+            time.sleep(0.001)
+        sizes = {p: p.stat().st_size for p in beats.iterdir()}
+        time.sleep(0.3)
+        assert {p: p.stat().st_size for p in beats.iterdir()} == sizes, "an orphan still writes"
+        assert proc.wait(timeout=30) == 143
+        assert "terminated" in proc.stderr.read()
+        for p in beats.iterdir():
+            p.unlink()
+
+
 @pytest.mark.slow
 def test_failing_trial_is_recorded_and_retried(tmp_path, cli, install_plugin):
     env = install_plugin(tmp_path / "site", "flaky", "flaky = flaky_ifo", {"flaky_ifo": FLAKY})

@@ -8,7 +8,9 @@ from __future__ import annotations
 import argparse
 import errno
 import os
+import signal
 import sys
+import threading
 import warnings
 from collections.abc import Callable
 
@@ -42,6 +44,15 @@ WRITE_FAILURES = {
 """Errors of a write the machine refused, reported in one line rather than as a traceback."""
 
 
+class Terminated(KeyboardInterrupt):
+    """SIGTERM (a scheduler's end of a job, `kill`): unwound like Ctrl-C, so that what is
+    being written is finished or left out whole and the run's workers stop before it exits."""
+
+
+def _terminate(signum, frame) -> None:
+    raise Terminated
+
+
 def _one_line_warning(message, category, filename, lineno, line=None) -> str:
     return f"bench: warning: {message}\n"
 
@@ -50,8 +61,13 @@ def main(argv: list[str] | None = None) -> int:
     warnings.formatwarning = _one_line_warning  # a line each, not the source line under it
     args = build_parser().parse_args(argv)
     func: Callable[[argparse.Namespace], int] = args.func
+    in_main_thread = threading.current_thread() is threading.main_thread()
+    before = signal.signal(signal.SIGTERM, _terminate) if in_main_thread else None
     try:
         return func(args)
+    except Terminated:
+        print("bench: terminated; the same command resumes where this one stopped", file=sys.stderr)
+        return 128 + signal.SIGTERM
     except (BadInput, FileNotFoundError) as e:  # bench's own errors, and a missing path
         print(f"bench: error: {e}", file=sys.stderr)
         return 2
@@ -69,6 +85,9 @@ def main(argv: list[str] | None = None) -> int:
     except BrokenPipeError:  # `bench ... | head`: the reader left; say nothing more
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 0
+    finally:
+        if before is not None:
+            signal.signal(signal.SIGTERM, before)
 
 
 if __name__ == "__main__":
