@@ -192,3 +192,24 @@ def test_killed_expert_training_resumes_from_its_checkpoint(tmp_path):
     assert not checkpoint.exists()
     policy = experts.GaussianPolicy(meta["obs_dim"], meta["act_dim"], tuple(meta["hidden"]))
     policy.load_state_dict(torch.load(out / "policy.pt", weights_only=True))
+
+
+def test_kept_snapshots_are_chosen_on_episodes_of_their_own(tmp_path):
+    """With `kept_snapshots`, evenly spaced snapshots join best-seen and final; the one shipped
+    scored highest on the selection episodes, and its return is measured on the usual ones."""
+    env_id, out = "InvertedPendulum-v5", tmp_path / "expert"
+    cfg = experts.ExpertConfig(n_envs=2, steps_per_env=512, kept_snapshots=3)
+    meta = experts.train_expert(env_id, 6144, 0, cfg, out, progress=False)
+    kept = [name for name in meta["selection"] if name.startswith("kept at")]
+    assert kept == ["kept at 2048", "kept at 4096", "kept at 6144"]
+    assert "final" in meta["selection"]
+    assert meta["selection"][meta["snapshot"]] == max(meta["selection"].values())
+    policy = experts.GaussianPolicy(meta["obs_dim"], meta["act_dim"], tuple(meta["hidden"]))
+    policy.load_state_dict(torch.load(out / "policy.pt", weights_only=True))
+    deterministic = experts.DeterministicPolicy(
+        policy, np.array(meta["action_low"]), np.array(meta["action_high"])
+    )
+    returns = experts.evaluate_policy(deterministic, env_id, experts.EVAL_EPISODES, seed=10_000)
+    assert np.mean(returns) == pytest.approx(meta["return_mean"], abs=0.01)
+    with pytest.raises(ValueError, match="kept_snapshots"):
+        experts.ExpertConfig(kept_snapshots=-1)
