@@ -226,7 +226,10 @@ def train_expert(
     # shipped is not the luckiest of many draws on the same episodes.
     choose_on = SELECTION_SEED if kept else REPORT_SEED
     ranked = []
-    for name, state, at in candidates:
+    judged = tqdm(
+        candidates, desc="snapshots scored", unit="snapshot", disable=not progress or not kept
+    )
+    for name, state, at in judged:
         rets, policy = scored(state, choose_on)
         ranked.append((float(np.mean(rets)), rets, name, policy, at))
     _, rets, which, policy, at = max(ranked, key=lambda r: r[0])
