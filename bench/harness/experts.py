@@ -54,11 +54,16 @@ class ExpertConfig(TRPOConfig):
     tasks where a policy that looks perfect in training still fails on rare starts
     (InvertedDoublePendulum): the training return cannot tell those snapshots apart. 0: the
     better of best-seen and final, as before."""
+    selection_episodes: int = EVAL_EPISODES
+    """Episodes each kept snapshot is scored on: a policy that fails one start in fifty needs
+    more than fifty to be told from one that never fails."""
 
     def __post_init__(self) -> None:
         super().__post_init__()
         if self.kept_snapshots < 0:
             raise ValueError(f"kept_snapshots must be >= 0, not {self.kept_snapshots}")
+        if self.selection_episodes < 1:
+            raise ValueError(f"selection_episodes must be >= 1, not {self.selection_episodes}")
 
 
 class ExpertError(BadInput, FileNotFoundError):
@@ -216,11 +221,11 @@ def train_expert(
         candidates.append(("best", best["state"], best["steps"]))
     candidates += [(f"kept at {k['steps']}", k["state"], k["steps"]) for k in kept]
 
-    def scored(state: dict, seed: int) -> tuple[list[float], GaussianPolicy]:
+    def scored(state: dict, seed: int, episodes: int) -> tuple[list[float], GaussianPolicy]:
         policy = GaussianPolicy(obs_dim, act_dim, cfg.hidden)
         policy.load_state_dict(state)
         deterministic = DeterministicPolicy(policy, low, high)
-        return evaluate_policy(deterministic, env_id, EVAL_EPISODES, seed=seed), policy
+        return evaluate_policy(deterministic, env_id, episodes, seed=seed), policy
 
     # Chosen on episodes of their own where there are many candidates, so that the return
     # shipped is not the luckiest of many draws on the same episodes.
@@ -230,11 +235,11 @@ def train_expert(
         candidates, desc="snapshots scored", unit="snapshot", disable=not progress or not kept
     )
     for name, state, at in judged:
-        rets, policy = scored(state, choose_on)
+        rets, policy = scored(state, choose_on, cfg.selection_episodes if kept else EVAL_EPISODES)
         ranked.append((float(np.mean(rets)), rets, name, policy, at))
     _, rets, which, policy, at = max(ranked, key=lambda r: r[0])
     if kept:
-        rets, _ = scored(policy.state_dict(), REPORT_SEED)
+        rets, _ = scored(policy.state_dict(), REPORT_SEED, EVAL_EPISODES)
     mean, std = float(np.mean(rets)), float(np.std(rets))
     meta = {
         "env_id": env_id,
