@@ -265,7 +265,7 @@ def test_a_plugin_control_is_drawn_and_reported_as_one_and_its_policy_is_kept(
     text = (results / "report" / "report.md").read_text()
     for pair in ("GAIfO > Standing", "Linear > Standing", "GAIfO > Linear"):
         assert pair in text, pair
-    assert "**Survival** is a control" in text  # the floor's explanation, whatever its name
+    assert "**Standing** is a lower control (the floor)" in text  # the floor named as it is
 
     fig = plot.draw_figure2(normalize(trials))
     legend = [t.get_text() for t in fig.legends[0].get_texts()]

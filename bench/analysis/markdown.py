@@ -150,6 +150,14 @@ def header(df: pd.DataFrame, results_dir: Path) -> str:
     return "\n".join(lines)
 
 
+def _bold_names(shown: Sequence[str], names: Names) -> str:
+    return ", ".join(f"**{names.label(n)}**" for n in shown)
+
+
+def _is_a(shown: Sequence[str]) -> str:
+    return "is a" if len(shown) == 1 else "are each a"
+
+
 def how_to_read(learners: Sequence[str], reps: int, names: Names) -> str:
     items = [
         "**Normalized score**: per env, 0 is the mean return of the random policy and 1 that of "
@@ -170,20 +178,22 @@ def how_to_read(learners: Sequence[str], reps: int, names: Names) -> str:
         "**Learning curves**: the IQM over seeds at each evaluation during training, with its "
         "95% CI as a band.",
     ]
-    if names.with_role(learners, "floor"):
+    if floors := names.with_role(learners, "floor"):
         items.append(
-            "**Survival** is a control: it gets no demonstrations and is rewarded +1 per step "
-            "alive, so the same runs appear at every demonstration count. A learner that does "
-            "not beat it has not shown that it learned from the demonstrations."
+            f"{_bold_names(floors, names)} {_is_a(floors)} lower control (the floor): no "
+            "demonstrations, trained on a reward that says nothing of the task but to stay in "
+            "it (the built-in Survival: +1 per step alive), so the same runs appear at every "
+            "demonstration count. A learner that does not beat it has not shown that it "
+            "learned from the demonstrations."
         )
-    if names.with_role(learners, "ceiling"):
+    if ceilings := names.with_role(learners, "ceiling"):
         items.append(
-            "**Oracle** is the upper control: the imitators' optimizer with their settings, "
-            "trained on the env's own reward, no demonstrations. It is drawn as a line, not a bar. "
-            "A learner's IQM as a fraction of the oracle's (per env) says how much of what the "
-            "optimizer reaches at this budget the imitation reaches, and its worst seed's fraction "
-            "whether every seed got there; the gap from the oracle to the expert is the "
-            "optimizer's."
+            f"{_bold_names(ceilings, names)} {_is_a(ceilings)} upper control (the ceiling): "
+            "an optimizer with the imitators' settings, trained on the env's own reward, no "
+            "demonstrations. It is drawn as a line, not a bar. A learner's IQM as a fraction of "
+            "its own optimizer's ceiling (per env) says how much of what the optimizer reaches "
+            "at this budget the imitation reaches, and its worst seed's fraction whether every "
+            "seed got there; the gap from the ceiling to the expert is the optimizer's."
         )
     if names.starred(learners):
         items.append(
