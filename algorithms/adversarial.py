@@ -141,9 +141,12 @@ def discriminator_step(
     def mix_weights(n: int) -> torch.Tensor:
         return torch.rand(n, 1, generator=gen)
 
+    def normal(shape: torch.Size) -> torch.Tensor:
+        return torch.randn(shape, generator=gen)
+
     for _ in range(cfg.disc_steps):
         p, e = minibatch(policy_x), minibatch(expert_x)
-        loss, parts = discriminator_loss(disc.net, p, e, cfg, mix_weights)
+        loss, parts = discriminator_loss(disc.net, p, e, cfg, mix_weights, normal)
         if pause:  # the first minibatch's losses, for the log
             break
         opt.zero_grad()

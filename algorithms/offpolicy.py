@@ -86,6 +86,11 @@ def uniform(shape: tuple[int, ...], gen: torch.Generator, device: torch.device) 
     return torch.rand(shape, generator=gen).to(device)
 
 
+def normal(shape: tuple[int, ...], gen: torch.Generator, device: torch.device) -> torch.Tensor:
+    """N(0, 1) of `shape`, drawn like `uniform`."""
+    return torch.randn(shape, generator=gen).to(device)
+
+
 class CurrentDReward(resume.Stateful):
     """The critic's reward hook: for each replay minibatch, one Adam step of D on it against
     as many expert transitions, then D's reward for that minibatch from D as it is after the
@@ -109,7 +114,12 @@ class CurrentDReward(resume.Stateful):
         p = disc.inputs(replay_transitions(batch))
         e = disc.inputs(replay_transitions(e_batch))
         loss, parts = discriminator_loss(
-            disc.net, p, e, cfg, lambda n: uniform((n, 1), self.gen, p.device)
+            disc.net,
+            p,
+            e,
+            cfg,
+            lambda n: uniform((n, 1), self.gen, p.device),
+            lambda shape: normal(shape, self.gen, p.device),
         )
         self.opt.zero_grad()
         loss.backward()

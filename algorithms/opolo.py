@@ -36,6 +36,7 @@ from torch import nn
 
 from algorithms.offpolicy import (
     expert_replay,
+    normal,
     sac_budget,
     sample_of,
     train_on_reward,
@@ -164,7 +165,12 @@ class OPOLO(TD3):
             p = self.disc.inputs(agent)
             e = self.disc.inputs(self._expert_batch(len(p)))
             loss, parts = discriminator_loss(
-                self.disc.net, p, e, self.cfg, lambda n: uniform((n, 1), self.gen, self.device)
+                self.disc.net,
+                p,
+                e,
+                self.cfg,
+                lambda n: uniform((n, 1), self.gen, self.device),
+                lambda shape: normal(shape, self.gen, self.device),
             )
             self.disc_opt.zero_grad()
             loss.backward()

@@ -12,6 +12,7 @@ RANK = {
     "bench.errors": 0,
     "bench.validate": 0,
     "bench.atomic": 0,
+    "bench.fields": 0,
     "bench.rl": 1,
     "bench.imitation": 2,
     "bench.harness": 3,

@@ -283,3 +283,30 @@ def test_a_plugin_control_is_drawn_and_reported_as_one_and_its_policy_is_kept(
         [sys.executable, "-c", code, str(file)], env=env, capture_output=True, text=True
     )
     assert loaded.stdout.split() == ["MeanAction", "(1,", "1)"], loaded.stderr
+
+
+def test_a_field_added_later_keeps_old_ids_until_it_is_set(tmp_path):
+    """A config field declared `added_later` stays out of a resolved config (what trial ids
+    hash) while at its default, so adding it changed no recorded trial's id; set, it is in."""
+    from algorithms.adversarial import AdversarialConfig
+    from bench.harness.suite import load_suite as _load
+    from bench.harness.suite.resolve import as_json
+
+    assert "disc_noise" not in as_json(AdversarialConfig(n_envs=16))
+    assert as_json(AdversarialConfig(n_envs=16, disc_noise=0.5))["disc_noise"] == 0.5
+    body = f"envs: {{{PENDULUM}: {{budget: 4096, trpo: {{n_envs: 16}}}}}}\ndemos: [1]\nseeds: 1\n"
+    plain = _load(write_text(tmp_path / "a.yaml", body + "algorithms: [gaifo]\n")).trials
+    noisy = _load(
+        write_text(
+            tmp_path / "b.yaml", body + "algorithms: [{algorithm: gaifo, disc_noise: 0.5}]\n"
+        )
+    ).trials
+    assert plain[0].hyperparams == {
+        k: v for k, v in noisy[0].hyperparams.items() if k != "disc_noise"
+    }
+    assert plain[0].trial_id != noisy[0].trial_id
+
+
+def write_text(path: Path, text: str) -> Path:
+    path.write_text(text)
+    return path

@@ -18,6 +18,7 @@ import torch
 import torch.nn.functional as F
 from torch import nn
 
+from bench.fields import added_later
 from bench.rl import absorbing
 from bench.rl.absorbing import Transitions
 from bench.rl.networks import ConvTrunk, ObsShape, PixelScale, RunningNorm, mlp, shape_of
@@ -47,11 +48,17 @@ class DiscriminatorConfig:
     disc_entropy: float = 0.0
     """Weight of a bonus on the entropy of D's predictions, which keeps D from certainty
     (OPOLO's 0.001); 0: none."""
+    disc_noise: float = added_later(0.0)
+    """Instance noise: the std of Gaussian noise added to both sides' (normalized) feature rows
+    while D trains, not when it rewards. Where the two sides' supports barely overlap D
+    separates them perfectly and its reward goes flat over the policy's states; blurred, the
+    boundary stays a slope that points to the expert's states (Sønderby et al. 2017, Arjovsky
+    and Bottou 2017). 0: none."""
 
     def __post_init__(self) -> None:
         layers(self, "disc_hidden")
         above(self, 0, "disc_lr")
-        at_least(self, 0, "grad_penalty", "gp_target", "disc_entropy")
+        at_least(self, 0, "grad_penalty", "gp_target", "disc_entropy", "disc_noise")
 
 
 def discriminator_loss(
@@ -60,12 +67,20 @@ def discriminator_loss(
     expert: torch.Tensor,
     cfg: DiscriminatorConfig,
     mix_weights: Callable[[int], torch.Tensor],
+    normal: Callable[[torch.Size], torch.Tensor] | None = None,
 ) -> tuple[torch.Tensor, dict[str, torch.Tensor]]:
     """D's loss on one minibatch of each side, (N, F) feature rows of the policy's and the
     expert's, and its parts: binary cross-entropy with the expert labelled 1, less
     `disc_entropy` times the entropy of D's predictions, plus `grad_penalty` times
     (||grad D|| - gp_target)^2 on random interpolates (`mix_weights(N)` -> (N, 1) in [0, 1),
-    drawn only where there is a penalty). `net` maps rows to (N, 1) logits."""
+    drawn only where there is a penalty). `net` maps rows to (N, 1) logits. With `disc_noise`,
+    both sides' rows first get `disc_noise` times `normal(shape)` (standard normal draws) added,
+    the penalty's interpolates between the noisy rows."""
+    if cfg.disc_noise > 0:
+        if normal is None:
+            raise ValueError("disc_noise needs the caller's normal draws")
+        policy = policy + cfg.disc_noise * normal(policy.shape)
+        expert = expert + cfg.disc_noise * normal(expert.shape)
     logit_p, logit_e = net(policy).squeeze(-1), net(expert).squeeze(-1)
     bce = F.binary_cross_entropy_with_logits(
         logit_p, torch.zeros_like(logit_p)

@@ -7,6 +7,7 @@ import dataclasses
 import json
 from typing import Any
 
+from bench.fields import at_default_and_added_later
 from bench.harness import registry
 from bench.harness.suite.types import AlgorithmEntry, EnvSettings
 from bench.rl.trpo import TRPOConfig
@@ -18,8 +19,12 @@ def fields_of(config: type) -> dict[str, dataclasses.Field]:
 
 
 def as_json(config: Any) -> dict[str, Any]:
-    """A built config, defaults included, as JSON: a changed default is a new trial."""
-    return json.loads(json.dumps(dataclasses.asdict(config)))
+    """A built config, defaults included, as JSON: a changed default is a new trial. Fields
+    added after trials were recorded (`bench.fields.added_later`) are left out while at their
+    defaults, so those trials keep their ids."""
+    unset = at_default_and_added_later(config)
+    full = json.loads(json.dumps(dataclasses.asdict(config)))
+    return {k: v for k, v in full.items() if k not in unset}
 
 
 def on_env(env: EnvSettings, entry: AlgorithmEntry) -> dict[str, Any]:
