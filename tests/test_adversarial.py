@@ -133,11 +133,11 @@ def test_instance_noise_trains_on_every_discriminator_learner(tmp_path, cli):
     """`disc_noise` reaches D's step in each adversarial loop: on-policy, SAC's and OPOLO's."""
     suite = tmp_path / "noise.yaml"
     suite.write_text(
-        "envs: {InvertedPendulum-v5: {budget: 2048}}\ndemos: [1]\nseeds: 1\neval_episodes: 1\n"
+        "envs: {InvertedPendulum-v5: {budget: 1024}}\ndemos: [1]\nseeds: 1\neval_episodes: 1\n"
         "algorithms:\n"
-        "  - {algorithm: gaifo, disc_noise: 0.3, n_envs: 2, steps_per_env: 512}\n"
-        "  - {algorithm: gaifo-sac, disc_noise: 0.3, learning_starts: 512, batch_size: 64}\n"
-        "  - {algorithm: opolo, disc_noise: 0.3, learning_starts: 512, batch_size: 64}\n"
+        "  - {algorithm: gaifo, disc_noise: 0.3, n_envs: 2, steps_per_env: 256}\n"
+        "  - {algorithm: gaifo-sac, disc_noise: 0.3, learning_starts: 768, batch_size: 32}\n"
+        "  - {algorithm: opolo, disc_noise: 0.3, learning_starts: 768, batch_size: 32}\n"
     )
     out = cli("run", str(suite), "--results", str(tmp_path / "res"), "--jobs", "1")
     assert out.returncode == 0, out.stderr
