@@ -30,6 +30,15 @@ def write_suite(folder: Path, name: str, body: str) -> Path:
     return path
 
 
+def start_run(suite: Path, results: Path, jobs: str, **popen) -> subprocess.Popen:
+    """`bench run SUITE --results RESULTS --jobs JOBS` started in a session of its own (so its
+    whole process group can be signalled), its stdout discarded."""
+    command = [sys.executable, "-m", "bench.cli", "run", str(suite), "--results", str(results)]
+    return subprocess.Popen(
+        [*command, "--jobs", jobs], stdout=subprocess.DEVNULL, start_new_session=True, **popen
+    )
+
+
 pytestmark = pytest.mark.usefixtures("demo_cache")
 
 
@@ -41,22 +50,7 @@ def test_killed_run_resumes_without_losing_or_duplicating(tmp_path, cli):
         f"envs: {{{PENDULUM}: {{budget: 6144}}}}\ndemos: [1]\nalgorithms: [survival]\nseeds: 8\neval_episodes: 2\n",
     )
     results = tmp_path / "res"
-    proc = subprocess.Popen(
-        [
-            sys.executable,
-            "-m",
-            "bench.cli",
-            "run",
-            str(suite),
-            "--results",
-            str(results),
-            "--jobs",
-            "2",
-        ],
-        stdout=subprocess.DEVNULL,
-        stderr=subprocess.DEVNULL,
-        start_new_session=True,
-    )
+    proc = start_run(suite, results, "2", stderr=subprocess.DEVNULL)
     deadline = time.time() + 120
     while len(list((results / "trials").glob("*.json"))) < 3 and time.time() < deadline:
         time.sleep(0.05)
@@ -192,23 +186,13 @@ def test_once_a_terminated_runs_lock_is_free_nothing_of_it_still_writes(
     )
     results = tmp_path / "res"
     for _ in range(2):  # the race this guards against was intermittent
-        proc = subprocess.Popen(
-            [
-                sys.executable,
-                "-m",
-                "bench.cli",
-                "run",
-                str(suite),
-                "--results",
-                str(results),
-                "--jobs",
-                jobs,
-            ],
-            stdout=subprocess.DEVNULL,
+        proc = start_run(
+            suite,
+            results,
+            jobs,
             stderr=subprocess.PIPE,
             text=True,
             env={**env, "BEATS": str(beats)},
-            start_new_session=True,
         )
         deadline = time.time() + 120
         want = 2 if jobs == "2" else 1

@@ -27,6 +27,7 @@ from bench.harness import envs, paths
 from bench.rl.networks import DeterministicPolicy, GaussianPolicy, orthogonal_init
 from bench.rl.rollout import evaluate
 from bench.rl.trpo import TRPO, TRPOConfig, train
+from bench.validate import at_least
 
 EVAL_EPISODES = 50
 SELECTION_SEED = 20_000
@@ -49,8 +50,8 @@ class ExpertConfig(TRPOConfig):
     scaled by 0.01), as the learners start."""
     kept_snapshots: int = 0
     """Also keep this many snapshots evenly spaced over training, and ship whichever candidate
-    (those, the best-seen and the final) scores highest on `EVAL_EPISODES` selection episodes
-    of their own; the return shipped is then measured on the usual, separate episodes. For
+    (those, the best-seen and the final) scores highest on `selection_episodes` episodes
+    of its own; the return shipped is then measured on the usual, separate episodes. For
     tasks where a policy that looks perfect in training still fails on rare starts
     (InvertedDoublePendulum): the training return cannot tell those snapshots apart. 0: the
     better of best-seen and final, as before."""
@@ -60,10 +61,8 @@ class ExpertConfig(TRPOConfig):
 
     def __post_init__(self) -> None:
         super().__post_init__()
-        if self.kept_snapshots < 0:
-            raise ValueError(f"kept_snapshots must be >= 0, not {self.kept_snapshots}")
-        if self.selection_episodes < 1:
-            raise ValueError(f"selection_episodes must be >= 1, not {self.selection_episodes}")
+        at_least(self, 0, "kept_snapshots")
+        at_least(self, 1, "selection_episodes")
 
 
 class ExpertError(BadInput, FileNotFoundError):
