@@ -21,6 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 import torch
 
+from bench.fields import added_later
 from bench.harness.learners import (
     ImitationTRPOConfig,
     PolicyAverage,
@@ -53,6 +54,10 @@ from bench.rl.trpo import train
 DISC_NORMS = ("policy", "expert")
 """How D may scale states: by the policy's running statistics, or the demonstrations' fixed ones."""
 
+ABSORBING_FLOORS = ("none", "mean", "min")
+"""What may bound the absorbing state's reward from below: nothing, or the batch's real steps'
+mean or lowest reward."""
+
 
 @dataclass
 class AdversarialConfig(ImitationTRPOConfig, DiscriminatorConfig):
@@ -81,9 +86,24 @@ class AdversarialConfig(ImitationTRPOConfig, DiscriminatorConfig):
     policy makes no progress (Ant's start, Hopper's slow seed). On Ant at 0.99 it did worse:
     the policy never fooled the frozen D (docs: "D's pace per task")."""
 
+    absorbing_floor: str = added_later("none")
+    """A floor under D's reward for the absorbing state, per batch: "none", "mean" (the batch's
+    real steps' mean reward: a fall then costs no more than carrying on as the policy does on
+    average) or "min" (their lowest: no worse than the worst step taken). D judges a state the
+    expert never reaches (Hopper's expert never falls) ever lower while the policy rarely
+    falls (-0.6 at the start to -1.5 per step at 1M), so a hopper that stands values a fall
+    at ~3x its own flat reward for ever and risks no step (docs/results/hopper-1m.md)."""
+
     def __post_init__(self) -> None:
         super().__post_init__()
         DiscriminatorConfig.__post_init__(self)
+        if self.absorbing_floor not in ABSORBING_FLOORS:
+            raise ValueError(
+                f"absorbing_floor must be one of {', '.join(map(repr, ABSORBING_FLOORS))},"
+                f" not {self.absorbing_floor!r}"
+            )
+        if self.absorbing_floor != "none" and not self.absorbing:
+            raise ValueError("absorbing_floor needs absorbing states (absorbing: true)")
         if self.disc_norm not in DISC_NORMS:
             raise ValueError(
                 f"disc_norm must be one of {', '.join(map(repr, DISC_NORMS))}, not {self.disc_norm!r}"
@@ -117,6 +137,15 @@ def disc_normalizer(
     if disc_norm == "policy" or task.pixels is not None:
         return policy_norm
     return RunningNorm.of(np.concatenate(demos.observations))
+
+
+def floor_absorbing(r: np.ndarray, n_real: int, kind: str) -> tuple[np.ndarray, float]:
+    """`batch_transitions`' rewards `r` (the n_real real steps', then the absorbing tails')
+    with the tails' raised to at least the floor `kind` ("mean" or "min") of the real steps'
+    rewards; and that floor."""
+    real = r[:n_real]
+    floor = float(real.mean() if kind == "mean" else real.min())
+    return np.concatenate([real, np.maximum(r[n_real:], floor)]), floor
 
 
 def discriminator_step(
@@ -205,6 +234,8 @@ def train_adversarial(
         with torch.no_grad():
             r = reward(disc(policy_x)).numpy()
         stats["reward_mean"] = float(r[:n_real].reshape(batch.rewards.shape).mean())
+        if cfg.absorbing_floor != "none":
+            r, stats["absorbing_floor"] = floor_absorbing(r, n_real, cfg.absorbing_floor)
         stats["terminations"] = float(terminated.sum())
         if cfg.absorbing:
             # D's current reward for the absorbing loop, logged every update: in batches

@@ -2,7 +2,8 @@ import numpy as np
 import pytest
 import torch
 
-from algorithms.adversarial import AdversarialConfig, disc_normalizer
+from algorithms.adversarial import AdversarialConfig, disc_normalizer, floor_absorbing
+from bench.harness import store
 from bench.harness.pixels import PixelConfig
 from bench.harness.registry import Task
 from bench.imitation.data import Demos
@@ -142,3 +143,42 @@ def test_instance_noise_trains_on_every_discriminator_learner(tmp_path, cli):
     out = cli("run", str(suite), "--results", str(tmp_path / "res"), "--jobs", "1")
     assert out.returncode == 0, out.stderr
     assert "3 trials done, 0 failed" in out.stdout, out.stdout
+
+
+@pytest.mark.parametrize(("kind", "floor"), [("mean", 0.0), ("min", -1.0)])
+def test_an_absorbing_floor_raises_the_absorbing_tails_rewards_only(kind, floor):
+    real = np.array([-1.0, 0.5, 0.5], np.float32)
+    tails = np.array([-3.0, 2.0, -0.5, -5.0], np.float32)  # two tails: entries, then loops
+    r, got = floor_absorbing(np.concatenate([real, tails]), len(real), kind)
+    assert got == floor
+    np.testing.assert_array_equal(r[:3], real)
+    np.testing.assert_array_equal(r[3:], np.maximum(tails, floor))
+
+
+@pytest.mark.parametrize(
+    ("settings", "says"),
+    [
+        ({"absorbing_floor": "median"}, "absorbing_floor must be one of 'none', 'mean', 'min'"),
+        ({"absorbing_floor": "mean", "absorbing": False}, "absorbing_floor needs absorbing"),
+    ],
+)
+def test_an_absorbing_floor_is_refused_unless_known_and_with_absorbing_states(settings, says):
+    with pytest.raises(ValueError, match=says):
+        AdversarialConfig(**settings)
+
+
+@pytest.mark.slow
+@pytest.mark.usefixtures("demo_cache")
+def test_the_absorbing_floor_reaches_the_on_policy_loop(tmp_path, cli):
+    """With `absorbing_floor: mean` every update logs the floor it used, the batch's mean reward."""
+    suite = tmp_path / "floor.yaml"
+    suite.write_text(
+        "envs: {InvertedPendulum-v5: {budget: 1024}}\ndemos: [1]\nseeds: 1\neval_episodes: 1\n"
+        "algorithms:\n"
+        "  - {algorithm: gaifo, absorbing_floor: mean, n_envs: 2, steps_per_env: 256}\n"
+    )
+    out = cli("run", str(suite), "--results", str(tmp_path / "res"), "--jobs", "1")
+    assert out.returncode == 0, out.stderr
+    logs = store.load_logs(tmp_path / "res").pivot(index="index", columns="key", values="value")
+    assert len(logs) == 2
+    np.testing.assert_allclose(logs["absorbing_floor"], logs["reward_mean"], rtol=1e-5)

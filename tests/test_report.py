@@ -105,6 +105,7 @@ def test_report_has_every_table_and_figure(written, table_rows):
         "## 5 demonstrations",
         "![Performance profile, 5 demonstrations](profile_5demos.png)",
         "![Learning curves, 1 demonstration](curves_1demos.png)",
+        "Env steps to 0.8 normalized",
         "![Normalized return per env against number of demonstrations](figure2.png)",
         "\\* has access to expert actions",  # escaped: not a list item
     ):
@@ -255,6 +256,23 @@ def test_iqm_curves_are_rliable_iqm_per_step():
     assert frame["iqm"].tolist() == [3.0, 4.0]
     assert (frame["lo"] <= frame["iqm"]).all() and (frame["iqm"] <= frame["hi"]).all()
     assert (frame["seeds"] == 4).all()
+
+
+def test_steps_to_a_level_are_the_first_evaluation_at_or_above_it_per_seed():
+    values = {0: [0.1, 0.8, 0.5], 1: [0.85, 0.9, 1.0], 2: [0.2, 0.3, 0.79]}  # seed 2 never
+    rows = [
+        ("E", "a", 5, seed, step, value)
+        for seed, curve in values.items()
+        for step, value in zip((0, 100, 200), curve, strict=True)
+    ]
+    curves = pd.DataFrame(
+        rows, columns=["env_id", "algorithm", "n_demos", "seed", "env_steps", "normalized"]
+    )
+    steps = stats.steps_to(curves, 0.8)
+    assert steps["steps"].tolist() == [100, 0, np.inf]  # reached once counts, even if lost
+    cell = stats.time_to(steps).iloc[0]
+    assert (cell["seeds"], cell["median"], cell["worst"], cell["short"]) == (3, 100, np.inf, 1)
+    assert stats.time_to(steps[steps["seed"] < 2]).iloc[0]["worst"] == 100
 
 
 def test_iqm_curves_put_seeds_on_shared_steps():

@@ -411,6 +411,33 @@ def env_table(
     return table(pd.DataFrame(body, columns=header))
 
 
+def reach_table(rows: pd.DataFrame, names: Names) -> str:
+    """Markdown: `stats.time_to` rows, one per env and learner: the median and worst steps."""
+    order = {a: i for i, a in enumerate(names.order(rows["algorithm"].unique()))}
+    rows = rows[rows["algorithm"].isin(order)]
+    envs = {e: i for i, e in enumerate(labels.env_order(rows["env_id"].unique()))}
+    rows = rows.sort_values(["env_id", "algorithm"], key=lambda c: c.map({**envs, **order}))
+    body = [
+        [
+            labels.env_label(r.env_id),
+            names.label(r.algorithm),
+            steps(r.median),
+            steps(r.worst) + (f" ({r.short} of {r.seeds})" if r.short else ""),
+        ]
+        for r in rows.itertuples()
+    ]
+    return table(
+        pd.DataFrame(body, columns=["Env", "Learner", "median", "worst"]), right=["median", "worst"]
+    )
+
+
+def steps(n: float) -> str:
+    """Env steps, short: 420k, 1.25M; never for inf."""
+    if math.isinf(n):
+        return "never"
+    return f"{n / 1e6:.2f}M" if n >= 1e6 else f"{n / 1e3:.0f}k"
+
+
 def interval(estimate: float, lo: float, hi: float) -> str:
     """`estimate [lo, hi]`; the estimate alone for a point statistic (no interval)."""
     if pd.isna(lo) and pd.isna(hi):

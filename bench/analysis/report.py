@@ -4,7 +4,8 @@ Per demonstration count, the learners' normalized scores are pooled across envs
 and summarized with rliable (mean, median and IQM with 95% stratified-bootstrap
 CIs; probability of improvement of GAIfO over each other learner, and of each
 learner over the survival control; performance profiles), then the same env by
-env, and their learning curves are drawn as IQM over seeds with a 95% CI band. Random and expert are the references (0 and 1), not competitors; learners
+env, and their learning curves are drawn as IQM over seeds with a 95% CI band, with
+the env steps each took to reach 0.8 normalized (median and worst over seeds). Random and expert are the references (0 and 1), not competitors; learners
 that take no demonstrations (e.g. survival) compete at every count as controls.
 
 Written beside `report.md`: figure2, profile_<n>demos and curves_<n>demos as
@@ -39,6 +40,8 @@ STATE_MATCH_CSV = "state_match.csv"
 PER_ENV_CSV = "per_env.csv"
 AGGREGATE_COLUMNS = ["n_demos", "algorithm", "seeds", "envs", "metric", "estimate", "lo", "hi"]
 IMPROVEMENT_COLUMNS = ["n_demos", "algorithm", "other", "estimate", "lo", "hi"]
+REACH = 0.8
+"""The normalized return whose time to reach the curves' section tabulates."""
 
 
 # ---------------------------------------------------------------- entry points
@@ -105,11 +108,13 @@ def write_report(results_dir: Path, out_dir: Path | None = None, reps: int = 200
     else:
         figure_section = "No learning algorithm was run: only the random and expert references."
 
+    raw_curves = load_curves(results_dir, trials)
+    reach = stats.time_to(stats.steps_to(raw_curves, REACH))
     try:
-        curves: pd.DataFrame | str = load_iqm_curves(results_dir, trials, reps)
+        curves: pd.DataFrame | str = stats.iqm_curves(raw_curves, reps=reps)
     except ValueError as e:  # several curves per seed and step: records of more than one run
         curves = str(e)
-    per_count = [_demo_section(df, curves, n, out_dir, reps) for n in demo_counts(df)]
+    per_count = [_demo_section(df, curves, reach, n, out_dir, reps) for n in demo_counts(df)]
     by_env = [
         _per_env_section(df, n, aggregate, improvement, reps, names)
         for n, (_, aggregate, improvement) in zip(demo_counts(df), per_count, strict=True)
@@ -160,18 +165,27 @@ def tables(aggregates: pd.DataFrame, improvement: pd.DataFrame, names: Names) ->
 # ---------------------------------------------------------------- statistics
 
 
+def load_curves(results_dir: Path, trials: pd.DataFrame) -> pd.DataFrame:
+    """The learners' recorded curves, normalized with `trials`' references."""
+    curves = store.load_curves(results_dir)
+    return normalize(curves[~is_reference(curves)], reference_returns(trials))
+
+
 def load_iqm_curves(results_dir: Path, trials: pd.DataFrame, reps: int = 2000) -> pd.DataFrame:
     """`iqm_curves` of the learners' recorded curves, normalized with `trials`' references."""
-    curves = store.load_curves(results_dir)
-    curves = curves[~is_reference(curves)]
-    return stats.iqm_curves(normalize(curves, reference_returns(trials)), reps=reps)
+    return stats.iqm_curves(load_curves(results_dir, trials), reps=reps)
 
 
 # ---------------------------------------------------------------- markdown
 
 
 def _demo_section(
-    df: pd.DataFrame, curves: pd.DataFrame | str, n: int, out_dir: Path, reps: int
+    df: pd.DataFrame,
+    curves: pd.DataFrame | str,
+    reach: pd.DataFrame,
+    n: int,
+    out_dir: Path,
+    reps: int,
 ) -> tuple[str, pd.DataFrame, pd.DataFrame]:
     """Markdown for one demo count, and its aggregate and improvement rows."""
     title = markdown.demos_title(n)
@@ -221,6 +235,7 @@ def _demo_section(
     parts += [
         "### Learning curves",
         _curves_section(curves, competing, n, title, out_dir, names),
+        _reach_section(reach, competing, n, names),
     ]
     return (
         "\n\n".join(p.strip() for p in parts),
@@ -337,6 +352,17 @@ def _curves_section(
     return (
         text + "Normalized return at each evaluation during training: IQM over seeds, "
         "band: 95% CI.\n\n" + f"![Learning curves, {title.lower()}]({name}.png)"
+    )
+
+
+def _reach_section(reach: pd.DataFrame, competing: list[str], n: int, names: Names) -> str:
+    rows = reach[reach["algorithm"].isin(competing) & ((reach["n_demos"] == n) | demo_free(reach))]
+    if rows.empty:
+        return ""
+    return (
+        f"Env steps to {REACH:g} normalized: the first evaluation at or above it, median and"
+        " worst over seeds (never: not by the end of its budget).\n\n"
+        + markdown.reach_table(rows, names)
     )
 
 

@@ -378,6 +378,34 @@ def compare(run: pd.DataFrame, ref: pd.DataFrame, reps: int = 2000, seed: int = 
 
 # ---------------------------------------------------------------- learning curves
 
+CELL = ["env_id", "algorithm", "n_demos"]
+TIME_TO_COLUMNS = [*CELL, "seeds", "median", "worst", "short"]
+
+
+def steps_to(curves: pd.DataFrame, level: float) -> pd.DataFrame:
+    """Per seed of every (env, algorithm, demo count) of normalized `curves`: `steps`, the env
+    steps of its first evaluation at or above `level`, inf where none is. A curve is evaluated
+    every so many steps, so this is as fine as its points are apart."""
+    keys = [*CELL, "seed"]
+    every = curves.groupby(keys).size().index
+    reached = curves[curves["normalized"] >= level].groupby(keys)["env_steps"].min()
+    return reached.astype(float).reindex(every, fill_value=np.inf).rename("steps").reset_index()
+
+
+def time_to(steps: pd.DataFrame) -> pd.DataFrame:
+    """`steps_to`'s per-seed steps summed up per cell: TIME_TO_COLUMNS, the median and the
+    worst (inf where a seed never got there) over seeds, and how many never got there."""
+    grouped = steps.groupby(CELL)["steps"]
+    return pd.DataFrame(
+        {
+            "seeds": grouped.size(),
+            "median": grouped.median(),
+            "worst": grouped.max(),
+            "short": grouped.agg(lambda x: int(np.isinf(x).sum())),
+        }
+    ).reset_index()[TIME_TO_COLUMNS]
+
+
 IQM_CURVE_COLUMNS = ["env_id", "algorithm", "n_demos", "env_steps", "iqm", "lo", "hi", "seeds"]
 
 
