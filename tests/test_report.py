@@ -112,7 +112,15 @@ def test_report_has_every_table_and_figure(written, table_rows):
         assert needle in text, needle
     for label in ("GAIfO", "GAIL*", "Survival", "Random", "Expert"):
         assert any(r[0] == label for r in rows), label
-    for name in ("figure2", "profile_1demos", "profile_5demos", "curves_1demos", "curves_5demos"):
+    for name in (
+        "figure2",
+        "profile_1demos",
+        "profile_5demos",
+        "curves_1demos",
+        "curves_5demos",
+        "seeds_1demos",
+        "seeds_5demos",
+    ):
         assert (written.parent / f"{name}.png").read_bytes()[:4] == b"\x89PNG", name
         assert f"({name}.png)" in text
     assert "nan" not in text.lower()

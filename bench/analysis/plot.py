@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Collection, Iterable
+from itertools import product
 from pathlib import Path
 
 import pandas as pd
@@ -172,6 +173,34 @@ def draw_iqm_curves(frame: pd.DataFrame, title: str, names: Names) -> Figure:
         fig.supylabel("Normalized return (IQM)", fontsize="medium")
         handles = [Line2D([], [], color=colors[a], label=names.label(a)) for a in algos]
         _legend_and_titles(fig, handles, title, names.starred(algos))
+    return fig
+
+
+def draw_seed_curves(curves: pd.DataFrame, title: str, names: Names) -> Figure:
+    """Every seed's own learning curve (normalized `curves` of one demo count): a row of
+    panels per env, one panel per learner, one line per seed. Where the IQM shows a slow
+    average, this shows whether all seeds are slow or one stands still."""
+    envs = env_order(curves["env_id"].unique())
+    algos = algorithm_order(curves["algorithm"].unique())
+    colors = algorithm_colors(algos)
+    with sns.axes_style("whitegrid"), sns.plotting_context("paper"):
+        fig = Figure(figsize=(1.7 * len(algos) + 0.6, 1.45 * len(envs) + 0.9), layout="constrained")
+        grid = fig.subplots(len(envs), len(algos), squeeze=False, sharex="row", sharey=True)
+        for (i, env_id), (j, a) in product(enumerate(envs), enumerate(algos)):
+            ax = grid[i, j]
+            rows = curves[(curves["env_id"] == env_id) & (curves["algorithm"] == a)]
+            for _, seed in rows.sort_values("env_steps").groupby("seed"):
+                ax.plot(seed["env_steps"], seed["normalized"], color=colors[a], lw=0.8, alpha=0.8)
+            _reference_lines(ax)
+            ax.set_xlim(left=0)
+            ax.xaxis.set_major_formatter(EngFormatter(sep=""))
+            ax.tick_params(labelsize="x-small")
+            if i == 0:
+                ax.set_title(names.label(a), fontsize="small")
+            if j == 0:
+                ax.set_ylabel(env_label(env_id), fontsize="small")
+        fig.supxlabel("Environment steps (each line one seed)", fontsize="medium")
+        fig.suptitle(title, fontweight="bold")
     return fig
 
 

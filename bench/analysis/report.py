@@ -8,7 +8,8 @@ env, and their learning curves are drawn as IQM over seeds with a 95% CI band, w
 the env steps each took to reach 0.8 normalized (median and worst over seeds). Random and expert are the references (0 and 1), not competitors; learners
 that take no demonstrations (e.g. survival) compete at every count as controls.
 
-Written beside `report.md`: figure2, profile_<n>demos and curves_<n>demos as
+Written beside `report.md`: figure2, profile_<n>demos, curves_<n>demos and seeds_<n>demos (each
+seed's own curve) as
 .png and .pdf, and the numbers of the tables as aggregates.csv, improvement.csv,
 per_env.csv and state_match.csv (distance of the learners' states from the expert's, `bench.harness.state_match`).
 Nothing here trains or evaluates: it reads records and writes files.
@@ -114,7 +115,9 @@ def write_report(results_dir: Path, out_dir: Path | None = None, reps: int = 200
         curves: pd.DataFrame | str = stats.iqm_curves(raw_curves, reps=reps)
     except ValueError as e:  # several curves per seed and step: records of more than one run
         curves = str(e)
-    per_count = [_demo_section(df, curves, reach, n, out_dir, reps) for n in demo_counts(df)]
+    per_count = [
+        _demo_section(df, curves, raw_curves, reach, n, out_dir, reps) for n in demo_counts(df)
+    ]
     by_env = [
         _per_env_section(df, n, aggregate, improvement, reps, names)
         for n, (_, aggregate, improvement) in zip(demo_counts(df), per_count, strict=True)
@@ -182,6 +185,7 @@ def load_iqm_curves(results_dir: Path, trials: pd.DataFrame, reps: int = 2000) -
 def _demo_section(
     df: pd.DataFrame,
     curves: pd.DataFrame | str,
+    raw_curves: pd.DataFrame,
     reach: pd.DataFrame,
     n: int,
     out_dir: Path,
@@ -235,6 +239,7 @@ def _demo_section(
     parts += [
         "### Learning curves",
         _curves_section(curves, competing, n, title, out_dir, names),
+        _seeds_section(raw_curves, competing, n, title, out_dir, names),
         _reach_section(reach, competing, n, names),
     ]
     return (
@@ -353,6 +358,19 @@ def _curves_section(
         text + "Normalized return at each evaluation during training: IQM over seeds, "
         "band: 95% CI.\n\n" + f"![Learning curves, {title.lower()}]({name}.png)"
     )
+
+
+def _seeds_section(
+    curves: pd.DataFrame, competing: list[str], n: int, title: str, out_dir: Path, names: Names
+) -> str:
+    frame = curves[
+        curves["algorithm"].isin(competing) & ((curves["n_demos"] == n) | demo_free(curves))
+    ]
+    if frame.empty:
+        return ""
+    name = f"seeds_{n}demos"
+    plot.save(plot.draw_seed_curves(frame, f"Each seed, {title.lower()}", names), out_dir / name)
+    return f"Each seed's own curve:\n\n![Each seed, {title.lower()}]({name}.png)"
 
 
 def _reach_section(reach: pd.DataFrame, competing: list[str], n: int, names: Names) -> str:
