@@ -424,6 +424,25 @@ def test_estimate_from_seconds_per_step_here_or_at_most_the_slowest_env():
     assert rows["C", "bco"].seconds is None
 
 
+def test_a_kind_new_to_an_env_is_scaled_from_the_algorithms_measured_there():
+    """GAIfO on a new env, where only the oracle has run: the oracle's rate here times GAIfO's
+    rate over the oracle's on the envs where both ran (a geometric mean over them)."""
+
+    def done(env_id: str, algorithm: str, seconds: float) -> TrialResult:
+        spec = TrialSpec("s", env_id, algorithm, 5, 0, 1000, 10)
+        return TrialResult(spec, "ok", [1.0], [], 1000, seconds, {})
+
+    records = [
+        *(done(env, "gaifo", s) for env, s in [("A", 20.0), ("B", 300.0), ("D", 900.0)]),
+        *(done(env, "oracle", s) for env, s in [("A", 10.0), ("B", 100.0), ("C", 50.0)]),
+    ]
+    todo = [TrialSpec("s", "C", "gaifo", 5, 1, 2000, 10)]
+    (row,) = estimate(todo, records)
+    # GAIfO/oracle: 2x on A, 3x on B (D has no oracle): sqrt(6) x the oracle's 0.05 s per step
+    assert row.seconds == pytest.approx(0.05 * 6**0.5 * 2000)
+    assert "oracle" in row.basis and "scaled" in row.basis
+
+
 def test_a_reference_costs_its_evaluation_at_any_budget():
     # A tiny-budget expert record (no env step of training) must not scale to 200 minutes at 2M.
     spec = TrialSpec("s", "A", "expert", 5, 0, 256, 10)

@@ -34,6 +34,8 @@ class Tally:
     sums: a price costs the same however many records there are."""
 
     trials: int = 0
+    trained: int = 0
+    """Of `trials`, those that trained (whose cost grows with their budget)."""
     seconds_per_step: float = 0.0
     """Summed over the trials that trained: wall seconds over budget."""
     fixed_seconds: float = 0.0
@@ -43,6 +45,7 @@ class Tally:
     def add(self, wall_time: float, budget: int, trained: bool) -> None:
         self.trials += 1
         if trained:  # training time scales with the budget
+            self.trained += 1
             self.seconds_per_step += wall_time / budget
         else:
             self.fixed_seconds += wall_time
@@ -59,9 +62,12 @@ class CostModel:
     first, so a run does not end with one long trial on one core while the others idle), the
     progress bar's time left, `--time-limit` and `--estimate`.
 
-    A record predicts a like trial's cost in proportion to budget (`Tally`); a kind with
-    no record on this env goes by the slowest env measured for its algorithm, seen the same way
-    (rough: envs step at different speeds; a state trial never goes by a pixel one's). Budget
+    A record predicts a like trial's cost in proportion to budget (`Tally`). A kind with no
+    record on this env is scaled from the algorithms that have one here, by how its cost per
+    step compares with theirs on the envs where both ran (a new task's GAIfO from its oracle
+    screen, say); failing that, it goes by the slowest env measured for its algorithm, seen the
+    same way (rough: envs step at different speeds; a state trial never goes by a pixel one's).
+    Budget
     alone is a poor guide: at the same budget a BCO trial takes 3x a GAIfO one, and the
     references (random, expert) take almost nothing. Records made while the machine was busy
     make a price high.
@@ -119,13 +125,40 @@ class CostModel:
                 if o == seen and algorithm == spec.algorithm
             }
             here = self.done.get((seen, spec.env_id, spec.algorithm), Tally()).trials
+            scaled = self._scaled(seen, spec.env_id, spec.algorithm)
         if spec.env_id in by_env:
             return by_env[spec.env_id], f"mean of {here} trials"
+        if scaled is not None:
+            per_step, others = scaled
+            return per_step * spec.budget, f"as {', '.join(others)} here, scaled"
         if by_env:
             slowest = max(by_env, key=by_env.get)
             shown = slowest if seen is None else f"{slowest} ({seen})"
             return by_env[slowest], f"rough: as on {shown}, the slowest measured"
         return None, f"no finished {spec.algorithm} trial"
+
+    def _scaled(
+        self, seen: str | None, env_id: str, algorithm: str
+    ) -> tuple[float, list[str]] | None:
+        """Seconds per step of `algorithm` on `env_id` (seen as `seen`) from the algorithms
+        that trained there: each one's rate here times the geometric mean, over the other envs
+        where both trained, of `algorithm`'s rate over its; the geometric mean of those. And
+        the algorithms it rests on. None where no algorithm here ran beside it elsewhere.
+        Called with the lock held."""
+        rates: dict[str, dict[str, float]] = {}  # algorithm -> env -> seconds per step
+        for (o, env, algo), tally in self.done.items():
+            if o == seen and tally.trained:
+                rates.setdefault(algo, {})[env] = tally.seconds_per_step / tally.trained
+        mine = rates.get(algorithm, {})
+        guesses, others = [], []
+        for other, theirs in sorted(rates.items()):
+            shared = [e for e in theirs if e in mine and e != env_id]
+            if other == algorithm or env_id not in theirs or not shared:
+                continue
+            ratio = np.mean([np.log(mine[e] / theirs[e]) for e in shared])
+            guesses.append(np.log(theirs[env_id]) + ratio)
+            others.append(other)
+        return (float(np.exp(np.mean(guesses))), others) if guesses else None
 
     def seconds(self, spec: TrialSpec) -> float | None:
         """Expected wall seconds of `spec` (None: nothing to go by), less what its snapshot
