@@ -379,7 +379,7 @@ def _reach_section(reach: pd.DataFrame, competing: list[str], n: int, names: Nam
         return ""
     return (
         f"Env steps to {REACH:g} normalized: the first evaluation at or above it, median and"
-        " worst over seeds (never: not by the end of its budget).\n\n"
+        " worst over seeds (never: at none of the evaluations along its curve).\n\n"
         + markdown.reach_table(rows, names)
     )
 
