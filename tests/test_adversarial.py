@@ -132,17 +132,27 @@ def test_no_instance_noise_draws_nothing_so_earlier_runs_stay_bit_identical():
 @pytest.mark.usefixtures("demo_cache")
 def test_instance_noise_trains_on_every_discriminator_learner(tmp_path, cli):
     """`disc_noise` reaches D's step in each adversarial loop: on-policy, SAC's and OPOLO's."""
-    suite = tmp_path / "noise.yaml"
+    out = run_on_the_pendulum(
+        tmp_path,
+        cli,
+        "{algorithm: gaifo, disc_noise: 0.3, n_envs: 2, steps_per_env: 256}",
+        "{algorithm: gaifo-sac, disc_noise: 0.3, learning_starts: 768, batch_size: 32}",
+        "{algorithm: opolo, disc_noise: 0.3, learning_starts: 768, batch_size: 32}",
+    )
+    assert "3 trials done, 0 failed" in out.stdout, out.stdout
+
+
+def run_on_the_pendulum(tmp_path, cli, *entries: str):
+    """`bench run` of one 1,024-step InvertedPendulum-v5 trial per algorithm entry (1 demo, one
+    seed, one evaluation episode), records in tmp_path/res; asserts it succeeded."""
+    suite = tmp_path / "pendulum.yaml"
     suite.write_text(
         "envs: {InvertedPendulum-v5: {budget: 1024}}\ndemos: [1]\nseeds: 1\neval_episodes: 1\n"
-        "algorithms:\n"
-        "  - {algorithm: gaifo, disc_noise: 0.3, n_envs: 2, steps_per_env: 256}\n"
-        "  - {algorithm: gaifo-sac, disc_noise: 0.3, learning_starts: 768, batch_size: 32}\n"
-        "  - {algorithm: opolo, disc_noise: 0.3, learning_starts: 768, batch_size: 32}\n"
+        "algorithms:\n" + "".join(f"  - {entry}\n" for entry in entries)
     )
     out = cli("run", str(suite), "--results", str(tmp_path / "res"), "--jobs", "1")
     assert out.returncode == 0, out.stderr
-    assert "3 trials done, 0 failed" in out.stdout, out.stdout
+    return out
 
 
 @pytest.mark.parametrize(("kind", "floor"), [("mean", 0.0), ("min", -1.0)])
@@ -171,14 +181,9 @@ def test_an_absorbing_floor_is_refused_unless_known_and_with_absorbing_states(se
 @pytest.mark.usefixtures("demo_cache")
 def test_the_absorbing_floor_reaches_the_on_policy_loop(tmp_path, cli):
     """With `absorbing_floor: mean` every update logs the floor it used, the batch's mean reward."""
-    suite = tmp_path / "floor.yaml"
-    suite.write_text(
-        "envs: {InvertedPendulum-v5: {budget: 1024}}\ndemos: [1]\nseeds: 1\neval_episodes: 1\n"
-        "algorithms:\n"
-        "  - {algorithm: gaifo, absorbing_floor: mean, n_envs: 2, steps_per_env: 256}\n"
+    run_on_the_pendulum(
+        tmp_path, cli, "{algorithm: gaifo, absorbing_floor: mean, n_envs: 2, steps_per_env: 256}"
     )
-    out = cli("run", str(suite), "--results", str(tmp_path / "res"), "--jobs", "1")
-    assert out.returncode == 0, out.stderr
     logs = store.load_logs(tmp_path / "res").pivot(index="index", columns="key", values="value")
     assert len(logs) == 2
     np.testing.assert_allclose(logs["absorbing_floor"], logs["reward_mean"], rtol=1e-5)

@@ -109,7 +109,7 @@ def write_report(results_dir: Path, out_dir: Path | None = None, reps: int = 200
     else:
         figure_section = "No learning algorithm was run: only the random and expert references."
 
-    raw_curves = load_curves(results_dir, trials)
+    raw_curves = normalized_curves(results_dir, trials)
     reach = stats.time_to(stats.steps_to(raw_curves, REACH))
     try:
         curves: pd.DataFrame | str = stats.iqm_curves(raw_curves, reps=reps)
@@ -168,15 +168,10 @@ def tables(aggregates: pd.DataFrame, improvement: pd.DataFrame, names: Names) ->
 # ---------------------------------------------------------------- statistics
 
 
-def load_curves(results_dir: Path, trials: pd.DataFrame) -> pd.DataFrame:
+def normalized_curves(results_dir: Path, trials: pd.DataFrame) -> pd.DataFrame:
     """The learners' recorded curves, normalized with `trials`' references."""
     curves = store.load_curves(results_dir)
     return normalize(curves[~is_reference(curves)], reference_returns(trials))
-
-
-def load_iqm_curves(results_dir: Path, trials: pd.DataFrame, reps: int = 2000) -> pd.DataFrame:
-    """`iqm_curves` of the learners' recorded curves, normalized with `trials`' references."""
-    return stats.iqm_curves(load_curves(results_dir, trials), reps=reps)
 
 
 # ---------------------------------------------------------------- markdown
@@ -340,9 +335,7 @@ def _curves_section(
 ) -> str:
     if isinstance(curves, str):
         return f"No learning curves: {curves}."
-    frame = curves[
-        curves["algorithm"].isin(competing) & ((curves["n_demos"] == n) | demo_free(curves))
-    ]
+    frame = _at_count(curves, competing, n)
     if frame.empty:
         return f"No learning curves were recorded with {title.lower()}."
     text = ""
@@ -363,9 +356,7 @@ def _curves_section(
 def _seeds_section(
     curves: pd.DataFrame, competing: list[str], n: int, title: str, out_dir: Path, names: Names
 ) -> str:
-    frame = curves[
-        curves["algorithm"].isin(competing) & ((curves["n_demos"] == n) | demo_free(curves))
-    ]
+    frame = _at_count(curves, competing, n)
     if frame.empty:
         return ""
     name = f"seeds_{n}demos"
@@ -374,7 +365,7 @@ def _seeds_section(
 
 
 def _reach_section(reach: pd.DataFrame, competing: list[str], n: int, names: Names) -> str:
-    rows = reach[reach["algorithm"].isin(competing) & ((reach["n_demos"] == n) | demo_free(reach))]
+    rows = _at_count(reach, competing, n)
     if rows.empty:
         return ""
     return (
@@ -385,6 +376,11 @@ def _reach_section(reach: pd.DataFrame, competing: list[str], n: int, names: Nam
 
 
 # ---------------------------------------------------------------- helpers
+
+
+def _at_count(frame: pd.DataFrame, competing: list[str], n: int) -> pd.DataFrame:
+    """`frame`'s rows of the `competing` learners at `n` demonstrations, demo-free ones included."""
+    return frame[frame["algorithm"].isin(competing) & ((frame["n_demos"] == n) | demo_free(frame))]
 
 
 def _concat(frames: list[pd.DataFrame], columns: list[str]) -> pd.DataFrame:

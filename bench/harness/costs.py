@@ -125,8 +125,9 @@ class CostModel:
                 if o == seen and algorithm == spec.algorithm
             }
             here = self.done.get((seen, spec.env_id, spec.algorithm), Tally()).trials
-            scaled = self._scaled(seen, spec.env_id, spec.algorithm)
-        if spec.env_id in by_env:
+            measured = spec.env_id in by_env  # else: scaled from the algorithms measured here
+            scaled = None if measured else self._scaled(seen, spec.env_id, spec.algorithm)
+        if measured:
             return by_env[spec.env_id], f"mean of {here} trials"
         if scaled is not None:
             per_step, others = scaled
