@@ -397,3 +397,21 @@ def test_a_demonstration_cache_under_a_file_is_one_line(tmp_path, bench_here, mo
     out = bench_here("run", str(suite), "--results", str(tmp_path / "res"))
     assert out.returncode == 2 and out.stderr.count("\n") == 1, out.stderr
     assert "IFO_BENCH_CACHE" in out.stderr and not (tmp_path / "res").exists()
+
+
+def test_a_reader_that_leaves_early_ends_the_output_quietly(tmp_path):
+    """`bench run SUITE --estimate | head -1`: the reader closes the pipe (here before the
+    first line); the command stops writing without a traceback."""
+    import subprocess
+    import sys
+
+    suite = Path(__file__).parents[1] / "suites" / "pybullet.yaml"
+    bench = subprocess.Popen(
+        [sys.executable, "-m", "bench.cli", "run", str(suite), "--estimate"],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    bench.stdout.close()
+    stderr = bench.stderr.read()
+    assert bench.wait() == 0 and "Traceback" not in stderr, stderr

@@ -71,6 +71,10 @@ def main(argv: list[str] | None = None) -> int:
     except (BadInput, FileNotFoundError) as e:  # bench's own errors, and a missing path
         print(f"bench: error: {e}", file=sys.stderr)
         return 2
+    except BrokenPipeError:  # `bench ... | head`: the reader left; say nothing more. An
+        # OSError itself, so caught before OSError is.
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 0
     except OSError as e:
         if e.errno not in WRITE_FAILURES:
             raise
@@ -82,9 +86,6 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("bench: interrupted", file=sys.stderr)
         return 130
-    except BrokenPipeError:  # `bench ... | head`: the reader left; say nothing more
-        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
-        return 0
     finally:
         if before is not None:
             signal.signal(signal.SIGTERM, before)
