@@ -628,6 +628,19 @@ def test_a_settings_file_is_shared_and_a_suites_own_settings_win(tmp_path):
     assert by_label["ifo"]["steps"] == 3
 
 
+def test_a_settings_files_setting_no_learner_of_the_suite_has_goes_unused(tmp_path):
+    """A settings file serves many suites: a screen of the controls alone runs on a task whose
+    entry also tunes the discriminator. The suite's own setting no algorithm has is refused."""
+    (tmp_path / "tuned.yaml").write_text(yaml.safe_dump({PENDULUM: {"hyperparams": {"steps": 3}}}))
+    controls = base() | {"algorithms": ["random", "expert", "trpo-ifo"]}
+    plain = load_suite(write(tmp_path, controls, "plain.yaml")).trials
+    tuned = load_suite(write(tmp_path, controls | {"settings": "tuned.yaml"}, "t.yaml")).trials
+    assert [s.trial_id for s in tuned] == [s.trial_id for s in plain]
+    _set(controls, ("envs", PENDULUM, "hyperparams"), {"steps": 3})
+    with pytest.raises(SuiteError, match="no algorithm of the suite has this setting"):
+        load_suite(write(tmp_path, controls, "own.yaml"))
+
+
 @pytest.mark.parametrize(
     ("tuned", "expected"),
     [
@@ -636,6 +649,10 @@ def test_a_settings_file_is_shared_and_a_suites_own_settings_win(tmp_path):
         (f"{PENDULUM}: {{trpo: {{n_env: 16}}}}", f"{PENDULUM}.trpo.n_env: not a TRPO setting"),
         (f"{PENDULUM}: {{budget: 5}}", f"{PENDULUM}.budget: unknown key"),
         (f"{PENDULUM}: {{trpo: {{gamma: 2.0}}}}", f"{PENDULUM}.trpo"),
+        (
+            f"{PENDULUM}: {{hyperparams: {{stepz: 3}}}}",
+            f"{PENDULUM}.hyperparams.stepz: no registered algorithm has this setting",
+        ),
     ],
 )
 def test_a_bad_settings_file_is_one_line(tmp_path, tuned, expected):

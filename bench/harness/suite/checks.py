@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
+from collections.abc import Collection
 from typing import Any
 
 from bench import validate
@@ -117,14 +118,18 @@ def check_dataset(env: EnvSettings, most_demos: int, algorithms: tuple) -> None:
         )
 
 
-def check_env_hyperparams(env: EnvSettings, algorithms: tuple[AlgorithmEntry, ...]) -> None:
-    """Each of the env's hyperparams is a setting of some algorithm of the suite, of its type:
-    a typo would otherwise reach no algorithm and change nothing, silently."""
+def check_env_hyperparams(
+    env: EnvSettings, algorithms: tuple[AlgorithmEntry, ...], own: Collection[str]
+) -> None:
+    """Each of the env's hyperparams fits the type of every algorithm of the suite that has
+    it, and each the suite sets itself (`own`) is a setting of one of them: a typo would
+    otherwise reach no algorithm and change nothing, silently. A settings file's entries
+    serve many suites, so one the suite's algorithms lack is left unused (`check_known`)."""
     key = f"envs.{env.env_id}.hyperparams"
     configs = [registry.get(a.name).config for a in algorithms]
     for name, value in env.hyperparams.items():
         having = [config for config in configs if name in resolve.fields_of(config)]
-        if not having:
+        if not having and name in own:
             shown = ", ".join(sorted({a.shown for a in algorithms}))
             raise Invalid(f"{key}.{name}", f"no algorithm of the suite has this setting ({shown})")
         for config in having:
@@ -132,6 +137,16 @@ def check_env_hyperparams(env: EnvSettings, algorithms: tuple[AlgorithmEntry, ..
                 validate.check_types(config, {name: value})
             except validate.SettingError as e:
                 raise at_setting(key, e) from None
+
+
+def check_known(hyperparams: dict, key: str) -> None:
+    """Each name is a setting of some registered algorithm (a settings file's typo)."""
+    known = {
+        f for algo in registry.all_algorithms().values() for f in resolve.fields_of(algo.config)
+    }
+    for name in hyperparams:
+        if name not in known:
+            raise Invalid(f"{key}.{name}", "no registered algorithm has this setting")
 
 
 def check_env_settings(env: EnvSettings, algorithms: tuple[AlgorithmEntry, ...]) -> None:

@@ -121,7 +121,7 @@ def _suite(raw: Any, path: Path) -> Suite:
         except EnvError as e:
             raise checks.Invalid(f"envs.{env.env_id}", checks.one_line(str(e))) from None
         if env.hyperparams:
-            checks.check_env_hyperparams(env, algorithms)
+            checks.check_env_hyperparams(env, algorithms, file.envs[env.env_id].hyperparams)
         if env.trpo or env.hyperparams:
             checks.check_env_settings(env, algorithms)
         if env.observation is not None:
@@ -172,6 +172,7 @@ def _settings(path: Path) -> dict[str, schema.SettingsEntry]:
         entries[env_id] = schema.parse(schema.SettingsEntry, entry, key)
         _check_trpo(entries[env_id].trpo, f"{key}.trpo")
         checks.check_plain(entries[env_id].hyperparams, f"{key}.hyperparams")
+        checks.check_known(entries[env_id].hyperparams, f"{key}.hyperparams")
     return entries
 
 
