@@ -424,6 +424,19 @@ def test_estimate_from_seconds_per_step_here_or_at_most_the_slowest_env():
     assert rows["C", "bco"].seconds is None
 
 
+def test_one_record_of_a_swamped_machine_does_not_set_the_price():
+    """A survival trial that took 30x its like ones (paused for hours, or a core shared five
+    ways) among four ordinary ones: the price is theirs, not a mean four times over."""
+
+    def done(seconds: float) -> TrialResult:
+        spec = TrialSpec("s", "A", "survival", 5, 0, 1000, 10)
+        return TrialResult(spec, "ok", [1.0], [], 1000, seconds, {})
+
+    records = [done(s) for s in (9.0, 10.0, 11.0, 12.0, 300.0)]
+    (row,) = estimate([TrialSpec("s", "A", "survival", 5, 1, 2000, 10)], records)
+    assert row.seconds == pytest.approx(22.0) and "median of 5" in row.basis
+
+
 def test_a_kind_new_to_an_env_is_scaled_from_the_algorithms_measured_there():
     """GAIfO on a new env, where only the oracle has run: the oracle's rate here times GAIfO's
     rate over the oracle's on the envs where both ran (a geometric mean over them)."""

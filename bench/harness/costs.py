@@ -30,29 +30,49 @@ def cost_kind(spec: TrialSpec) -> tuple[str, str]:
 
 @dataclass
 class Tally:
-    """What the finished trials of one kind say about the cost of a like trial, as running
-    sums: a price costs the same however many records there are."""
+    """What the finished trials of one kind say about the cost of a like trial: the median
+    of theirs, so that one record made while the machine was swamped (a trial paused for
+    hours, a core shared five ways) does not price every like trial several times over."""
 
-    trials: int = 0
-    trained: int = 0
-    """Of `trials`, those that trained (whose cost grows with their budget)."""
-    seconds_per_step: float = 0.0
-    """Summed over the trials that trained: wall seconds over budget."""
-    fixed_seconds: float = 0.0
-    """Summed over the trials that trained on no env step (the references, random and
-    expert): they cost their evaluation alone, at any budget."""
+    rates: list[float] = field(default_factory=list)
+    """Of the trials that trained (whose cost grows with their budget): wall seconds over
+    budget."""
+    fixed: list[float] = field(default_factory=list)
+    """Of the trials that trained on no env step (the references, random and expert): wall
+    seconds, their evaluation's, at any budget."""
+    _medians: tuple[float, float] | None = None
+
+    @property
+    def trials(self) -> int:
+        return len(self.rates) + len(self.fixed)
+
+    @property
+    def trained(self) -> int:
+        return len(self.rates)
 
     def add(self, wall_time: float, budget: int, trained: bool) -> None:
-        self.trials += 1
         if trained:  # training time scales with the budget
-            self.trained += 1
-            self.seconds_per_step += wall_time / budget
+            self.rates.append(wall_time / budget)
         else:
-            self.fixed_seconds += wall_time
+            self.fixed.append(wall_time)
+        self._medians = None
 
-    def mean_at(self, budget: float) -> float:
-        """The mean over these trials of what each says a like trial of `budget` steps takes."""
-        return (self.seconds_per_step * budget + self.fixed_seconds) / self.trials
+    def seconds_per_step(self) -> float:
+        """The median of the trials that trained (0 where none did)."""
+        return self._median()[0]
+
+    def at(self, budget: float) -> float:
+        """What a like trial of `budget` steps takes: the trials that trained at their median
+        rate, the others at their median time, weighted by how many there are of each."""
+        rate, fixed = self._median()
+        return (rate * budget * len(self.rates) + fixed * len(self.fixed)) / self.trials
+
+    def _median(self) -> tuple[float, float]:
+        if self._medians is None:  # prices are asked for far more often than records land
+            self._medians = tuple(
+                float(np.median(v)) if v else 0.0 for v in (self.rates, self.fixed)
+            )
+        return self._medians
 
 
 @dataclass
@@ -62,15 +82,14 @@ class CostModel:
     first, so a run does not end with one long trial on one core while the others idle), the
     progress bar's time left, `--time-limit` and `--estimate`.
 
-    A record predicts a like trial's cost in proportion to budget (`Tally`). A kind with no
+    Records predict a like trial's cost in proportion to budget, by their median (`Tally`). A kind with no
     record on this env is scaled from the algorithms that have one here, by how its cost per
     step compares with theirs on the envs where both ran (a new task's GAIfO from its oracle
     screen, say); failing that, it goes by the slowest env measured for its algorithm, seen the
     same way (rough: envs step at different speeds; a state trial never goes by a pixel one's).
-    Budget
-    alone is a poor guide: at the same budget a BCO trial takes 3x a GAIfO one, and the
+    Budget alone is a poor guide: at the same budget a BCO trial takes 3x a GAIfO one, and the
     references (random, expert) take almost nothing. Records made while the machine was busy
-    make a price high.
+    make a price high, and the median keeps one swamped record from setting it.
     """
 
     done: dict[tuple[str | None, str, str], Tally] = field(default_factory=dict)
@@ -120,7 +139,7 @@ class CostModel:
         seen = observed(spec)
         with self.lock:
             by_env = {  # this env's, if measured, and every other env's seen the same way
-                env: tally.mean_at(spec.budget)
+                env: tally.at(spec.budget)
                 for (o, env, algorithm), tally in self.done.items()
                 if o == seen and algorithm == spec.algorithm
             }
@@ -128,7 +147,7 @@ class CostModel:
             measured = spec.env_id in by_env  # else: scaled from the algorithms measured here
             scaled = None if measured else self._scaled(seen, spec.env_id, spec.algorithm)
         if measured:
-            return by_env[spec.env_id], f"mean of {here} trials"
+            return by_env[spec.env_id], f"median of {here} trials"
         if scaled is not None:
             per_step, others = scaled
             return per_step * spec.budget, f"as {', '.join(others)} here, scaled"
@@ -149,7 +168,7 @@ class CostModel:
         rates: dict[str, dict[str, float]] = {}  # algorithm -> env -> seconds per step
         for (o, env, algo), tally in self.done.items():
             if o == seen and tally.trained:
-                rates.setdefault(algo, {})[env] = tally.seconds_per_step / tally.trained
+                rates.setdefault(algo, {})[env] = tally.seconds_per_step()
         mine = rates.get(algorithm, {})
         guesses, others = [], []
         for other, theirs in sorted(rates.items()):
