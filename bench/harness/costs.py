@@ -40,7 +40,8 @@ class Tally:
     fixed: list[float] = field(default_factory=list)
     """Of the trials that trained on no env step (the references, random and expert): wall
     seconds, their evaluation's, at any budget."""
-    _medians: tuple[float, float] | None = None
+    _medians: tuple[float, float] | None = field(default=None, repr=False, compare=False)
+    """(rate, fixed) medians, kept until the next record lands."""
 
     @property
     def trials(self) -> int:
@@ -82,11 +83,12 @@ class CostModel:
     first, so a run does not end with one long trial on one core while the others idle), the
     progress bar's time left, `--time-limit` and `--estimate`.
 
-    Records predict a like trial's cost in proportion to budget, by their median (`Tally`). A kind with no
-    record on this env is scaled from the algorithms that have one here, by how its cost per
-    step compares with theirs on the envs where both ran (a new task's GAIfO from its oracle
-    screen, say); failing that, it goes by the slowest env measured for its algorithm, seen the
-    same way (rough: envs step at different speeds; a state trial never goes by a pixel one's).
+    Records predict a like trial's cost in proportion to budget, by their median (`Tally`). A
+    kind with no record on this env is scaled from the algorithms that have one here, by how its
+    cost per step compares with theirs on the envs where both ran (a new task's GAIfO from its
+    oracle screen, say); failing that, it goes by the slowest env measured for its algorithm,
+    seen the same way (rough: envs step at different speeds; a state trial never goes by a
+    pixel one's).
     Budget alone is a poor guide: at the same budget a BCO trial takes 3x a GAIfO one, and the
     references (random, expert) take almost nothing. Records made while the machine was busy
     make a price high, and the median keeps one swamped record from setting it.
