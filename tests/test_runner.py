@@ -245,10 +245,10 @@ def test_dispatch_runs_unseen_kinds_then_the_costliest_first():
     def spec(env: str, algorithm: str, seed: int, budget: int = 1000) -> TrialSpec:
         return TrialSpec("t", env, algorithm, 0, seed, budget, 1)
 
-    cheap, dear = spec(PENDULUM, "random", 1), spec(PENDULUM, "survival", 1)
-    unseen = spec(PENDULUM, "expert", 0, budget=10)
+    cheap, dear = spec(PENDULUM, "oracle", 1), spec(PENDULUM, "survival", 1)
+    unseen = spec(PENDULUM, "oracle-sac", 0, budget=10)
     timed = [
-        finished(spec(PENDULUM, "random", 0), 0.1),
+        finished(spec(PENDULUM, "oracle", 0), 0.1),
         finished(spec(PENDULUM, "survival", 0), 10.0),
     ]
     jobs = _jobs([cheap, dear, unseen], CostModel.of(timed))
@@ -258,24 +258,32 @@ def test_dispatch_runs_unseen_kinds_then_the_costliest_first():
     costs = CostModel.of(timed)
     jobs = _jobs([cheap, dear, spec(PENDULUM, "survival", 2)], costs)
     assert next(jobs)[1][0] == dear
-    costs.observe(finished(spec(PENDULUM, "random", 2), 100.0))  # a slow one finished meanwhile
+    costs.observe(finished(spec(PENDULUM, "oracle", 2), 100.0))  # a slow one finished meanwhile
     assert next(jobs)[1][0] == cheap  # the order follows what was learned
 
     # The suite's `runner.first` algorithms go before every other, dearest first among them.
-    oracle = [spec(PENDULUM, "oracle", s, budget=b) for s, b in ((0, 100), (1, 200))]
-    costs.observe(finished(spec(PENDULUM, "oracle", 9), 0.01))  # known to be the cheapest
-    assert [job[1][0] for job in _jobs([dear, *oracle], costs)][0] == dear
-    jobs = _jobs([dear, unseen, *oracle, cheap], costs, first={"oracle"})
+    sac = [spec(PENDULUM, "survival-sac", s, budget=b) for s, b in ((0, 100), (1, 200))]
+    costs.observe(finished(spec(PENDULUM, "survival-sac", 9), 0.01))  # known to be the cheapest
+    assert [job[1][0] for job in _jobs([dear, *sac], costs)][0] == dear
+    jobs = _jobs([dear, unseen, *sac, cheap], costs, first={"survival-sac"})
     order = [job[1][0] for job in jobs]
-    assert order[:2] == oracle[::-1] and set(order[2:]) == {dear, unseen, cheap}
+    assert order[:2] == sac[::-1] and set(order[2:]) == {dear, unseen, cheap}
+
+    # Before them all, the references every score is normalized against: they cost an
+    # evaluation, and a run cut short without them leaves nothing that can be read.
+    random, expert = spec(PENDULUM, "random", 0), spec(PENDULUM, "expert", 0)
+    costs.observe(finished(spec(PENDULUM, "random", 9), 0.001))
+    jobs = _jobs([*sac, dear, random, expert], costs, first={"survival-sac"})
+    order = [job[1][0] for job in jobs]
+    assert set(order[:2]) == {random, expert} and order[2:4] == sac[::-1]
 
 
 def test_trials_resuming_from_a_snapshot_run_before_new_ones():
     def spec(algorithm: str, seed: int, budget: int = 1000) -> TrialSpec:
         return TrialSpec("t", PENDULUM, algorithm, 0, seed, budget, 1)
 
-    dear, resumed, unseen = spec("survival", 1), spec("random", 1), spec("expert", 0)
-    costs = CostModel.of([finished(spec("survival", 0), 10.0), finished(spec("random", 0), 1.0)])
+    dear, resumed, unseen = spec("survival", 1), spec("oracle", 1), spec("oracle-sac", 0)
+    costs = CostModel.of([finished(spec("survival", 0), 10.0), finished(spec("oracle", 0), 1.0)])
     costs.done_before = {resumed.trial_id: 0.9}  # 0.1 s left: the cheapest, yet it goes first
     assert [job[1][0] for job in _jobs([dear, unseen, resumed], costs)] == [resumed, unseen, dear]
     # The suite's `runner.first` algorithms still go before any other.
@@ -299,13 +307,13 @@ def test_a_time_limit_starts_the_dearest_trial_that_still_fits_and_then_stops():
     assert next(jobs)[1][0] == specs[2]
     assert next(jobs, None) is None  # 30 s and unpriced: neither fits, so the run ends
 
-    # The dearest that fits goes first, whatever the suite's order; a reference costs its
-    # evaluation (1 s here) at any budget.
+    # The dearest that fits goes first, whatever the suite's order, after the references,
+    # which cost their evaluation (1 s here) at any budget.
     reference = TrialSpec("t", PENDULUM, "random", 1, 0, 1000, 1)
     costs.observe(TrialResult(reference, "ok", [1.0], [], 0, 1.0, {}))
     limit = TimeLimit.starting_now(60.0, clock=lambda: 0.0)
-    order = [job[1][0] for job in _jobs([reference, *specs[::-1]], costs, limit=limit)]
-    assert order == [*specs, reference]
+    order = [job[1][0] for job in _jobs([*specs[::-1], reference], costs, limit=limit)]
+    assert order == [reference, *specs]
 
 
 def test_once_none_fits_a_time_limit_starts_trials_that_can_pause_while_worth_it(tmp_path):

@@ -1,6 +1,7 @@
 """Run a suite's trials in parallel: `run_suite` hands each pending trial (`bench.harness.trial`) to
-a joblib worker (loky here, dask on a cluster): the suite's `runner.first` algorithms before the
-rest, and within each trials resuming from a snapshot first, then the longest (`bench.harness.costs`).
+a joblib worker (loky here, dask on a cluster): the references (random, expert) first, then the
+suite's `runner.first` algorithms, then the rest; within each, trials resuming from a snapshot
+first, then the longest (`bench.harness.costs`).
 
 The driver prepares each trial's inputs (demonstrations, or the expert) and
 ships them with it, so workers need no files: that is what lets the dask
@@ -74,8 +75,9 @@ def _jobs(
     snapshot_plan: SnapshotPlan | None = None,
     in_workers: bool = False,
 ) -> Iterator:
-    """The trials as joblib calls: those of the algorithms `first` (names or labels) before the
-    others; within each group, trials resuming from a snapshot first, then kinds with nothing
+    """The trials as joblib calls: the references every score is normalized against first (they
+    cost an evaluation, and a run cut short without them leaves no trial that can be read),
+    then those of the algorithms `first` (names or labels), then the others; within each group, trials resuming from a snapshot first, then kinds with nothing
     to go by (to learn their cost), then the dearest, so the last to finish are short. Under a
     time `limit`, those that still fit as each starts, the dearest first (never an unpriced
     one); once none does, those that can pause at the limit (`registry.Algorithm.resumable`,
@@ -84,7 +86,8 @@ def _jobs(
     first = set(first)
 
     def order(spec: TrialSpec) -> tuple:
-        return (bool({spec.algorithm, spec.shown} & first), *costs.priority(spec))
+        reference = registry.get(spec.algorithm).role in registry.REFERENCE_ROLES
+        return (reference, bool({spec.algorithm, spec.shown} & first), *costs.priority(spec))
 
     def pausable(spec: TrialSpec) -> bool:
         return snapshot_plan is not None and registry.get(spec.algorithm).resumable
