@@ -306,6 +306,16 @@ def test_plot_of_references_only_writes_the_table_without_a_figure(
     assert not (results / "figure2.png").exists()
 
 
+def test_plot_elsewhere_leaves_the_results_folder_as_it_was(finished_results, tmp_path, bench_here):
+    # a figure drawn from a folder a run is still filling must not add files to it
+    results = _copy(finished_results, tmp_path / "res")
+    before = sorted(results.rglob("*"))
+    out = bench_here("plot", str(results), "--out", str(tmp_path / "look" / "figure.png"))
+    assert out.returncode == 0, out.stderr
+    assert (tmp_path / "look" / "summary.csv").is_file()
+    assert sorted(results.rglob("*")) == before
+
+
 def test_plot_and_report_of_unreadable_records_are_one_line(finished_results, tmp_path, bench_here):
     results = _copy(finished_results, tmp_path / "res")
     for record in (results / "trials").glob("*.json"):

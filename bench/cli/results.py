@@ -28,14 +28,17 @@ def _plot(args: argparse.Namespace) -> int:
             kinds = ", ".join(f"{n} {s}" for s, n in left_out["status"].value_counts().items())
             print(f"{d}: {len(left_out)} records left out ({kinds})", file=sys.stderr)
         written = []
+        # --out sends everything elsewhere: a figure drawn from a folder still filling up
+        # leaves the folder as it was
+        out = Path(args.out) if args.out and len(dirs) == 1 else d / "figure2.png"
         if labels.Names.of(df).order(df["algorithm"].unique()):
-            out = Path(args.out) if args.out and len(dirs) == 1 else d / "figure2.png"
             written = plot.figure2(df, out)
         else:
             print(f"{d}: no learner's records, only references: no figure", file=sys.stderr)
-        plot.write_summary_csv(df, d / "summary.csv")
+        summary = out.with_name("summary.csv")
+        plot.write_summary_csv(df, summary)
         print(f"## {d}\n\n{markdown.summary_table(df)}\n")
-        print("wrote " + ", ".join(str(p) for p in [*written, d / "summary.csv"]) + "\n")
+        print("wrote " + ", ".join(str(p) for p in [*written, summary]) + "\n")
     return 0
 
 
@@ -85,7 +88,7 @@ def add(sub: argparse._SubParsersAction) -> None:
         "--out",
         metavar="FILE",
         type=out_file,
-        help="figure path (.png; a .pdf is written beside it)",
+        help="figure path (.png; a .pdf and summary.csv are written beside it)",
     )
     plot.set_defaults(func=_plot)
 
