@@ -8,15 +8,21 @@ from bench.harness import envs
 
 
 def rollout(env_id: str, seed: int, steps: int = 200) -> np.ndarray:
+    return trajectory(env_id, seed, steps)[0]
+
+
+def trajectory(env_id: str, seed: int, steps: int = 200) -> tuple[np.ndarray, np.ndarray]:
+    """Random actions from `seed`: the observations, and per step (reward, terminated)."""
     env = envs.make(env_id, seed)
-    obs = [env.reset(seed=seed)[0]]
+    obs, steps_taken = [env.reset(seed=seed)[0]], []
     for _ in range(steps):
-        o, _, term, trunc, _ = env.step(env.action_space.sample())
+        o, reward, term, trunc, _ = env.step(env.action_space.sample())
         obs.append(o)
+        steps_taken.append((reward, term))
         if term or trunc:
             obs.append(env.reset()[0])
     env.close()
-    return np.array(obs)
+    return np.array(obs), np.array(steps_taken, np.float64)
 
 
 @pytest.mark.parametrize("env_id", ["HopperBulletEnv-v0", "Pendulum-v1"])
@@ -32,16 +38,17 @@ def test_same_seed_same_rollout(env_id):
 )
 def test_the_speed_patches_step_like_the_library(env_id):
     """bench.harness.bullet_speed reads the same simulator state with fewer calls: a speed-up only, so
-    the same seed gives the same trajectory, bit for bit, through falls and resets."""
+    the same seed gives the same trajectory and rewards, bit for bit, through falls and resets."""
     from bench.harness import bullet_speed
 
-    fast = rollout(env_id, 5, steps=400)
+    fast = trajectory(env_id, 5, steps=400)
     bullet_speed.restore()
     try:
-        library = rollout(env_id, 5, steps=400)
+        library = trajectory(env_id, 5, steps=400)
     finally:
         bullet_speed.apply_again()
-    np.testing.assert_array_equal(fast, library)
+    np.testing.assert_array_equal(fast[0], library[0])
+    np.testing.assert_array_equal(fast[1], library[1])
 
 
 def test_unknown_env_is_one_clear_error():
