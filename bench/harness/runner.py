@@ -77,11 +77,12 @@ def _jobs(
 ) -> Iterator:
     """The trials as joblib calls: the references every score is normalized against first (they
     cost an evaluation, and a run cut short without them leaves no trial that can be read),
-    then those of the algorithms `first` (names or labels), then the others; within each group, trials resuming from a snapshot first, then kinds with nothing
-    to go by (to learn their cost), then the dearest, so the last to finish are short. Under a
-    time `limit`, those that still fit as each starts, the dearest first (never an unpriced
-    one); once none does, those that can pause at the limit (`registry.Algorithm.resumable`,
-    with a `snapshot_plan`) while that is worth it (`TimeLimit.worth_pausing`); then none."""
+    then those of the algorithms `first` (names or labels), then the others; within each
+    group, trials resuming from a snapshot first, then kinds with nothing to go by (to learn
+    their cost), then the dearest, so the last to finish are short. Under a time `limit`,
+    those that still fit as each starts, the dearest first (never an unpriced one); once none
+    does, those that can pause at the limit (`registry.Algorithm.resumable`, with a
+    `snapshot_plan`) while that is worth it (`TimeLimit.worth_pausing`); then none."""
 
     first = set(first)
 
