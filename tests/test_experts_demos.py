@@ -165,7 +165,8 @@ def test_demos_without_flags_never_terminated():
 def test_killed_expert_training_resumes_from_its_checkpoint(tmp_path):
     """A training run killed midway resumes from its last checkpoint, not from step 0."""
     env_id, out = "InvertedPendulumBulletEnv-v0", tmp_path / "expert"
-    settings = f"{env_id!r}, 16384, seed=0, cfg=TRPOConfig(n_envs=4, steps_per_env=256)"
+    budget, cfg = 16384, TRPOConfig(n_envs=4, steps_per_env=256)
+    settings = f"{env_id!r}, {budget}, seed=0, cfg={cfg!r}"
     script = (
         "from pathlib import Path\nfrom bench.harness import experts\nfrom bench.rl.trpo import TRPOConfig\n"
         f"experts.train_expert({settings}, out_dir=Path({str(out)!r}), progress=False,"
@@ -182,13 +183,11 @@ def test_killed_expert_training_resumes_from_its_checkpoint(tmp_path):
         proc.wait()
     assert checkpoint.exists() and not (out / "meta.json").exists(), "not killed midway"
     with pytest.raises(experts.ExpertError, match="other settings"):
-        experts.train_expert(env_id, 8192, 0, TRPOConfig(n_envs=4, steps_per_env=256), out)
+        experts.train_expert(env_id, budget // 2, 0, cfg, out)
     resumed_at = torch.load(checkpoint, weights_only=True)["run"]["steps"]
-    assert 0 < resumed_at < 16384
-    meta = experts.train_expert(
-        env_id, 16384, 0, TRPOConfig(n_envs=4, steps_per_env=256), out, progress=False
-    )
-    assert meta["resumes"] == 1 and meta["train_steps"] == 16384
+    assert 0 < resumed_at < budget
+    meta = experts.train_expert(env_id, budget, 0, cfg, out, progress=False)
+    assert meta["resumes"] == 1 and meta["train_steps"] == budget
     assert not checkpoint.exists()
     policy = experts.GaussianPolicy(meta["obs_dim"], meta["act_dim"], tuple(meta["hidden"]))
     policy.load_state_dict(torch.load(out / "policy.pt", weights_only=True))
