@@ -6,11 +6,11 @@
     python benchmarks/throughput.py --pixels --steps 10000   # from 64x64 frames (`observation: pixels`)
     python benchmarks/throughput.py --envs HopperBulletEnv-v0 --steps 5000 --sac 128 256   # SAC beside
     python benchmarks/throughput.py --envs HopperBulletEnv-v0 --steps 5000 --sac 256 --sac-device cpu cuda
-    python benchmarks/throughput.py --library   # everything with pybullet's own stepping: the before
+    python benchmarks/throughput.py --library   # everything with the simulators' own stepping: the before
 
-Prints one row per env. `raw (library)` steps a PyBullet env as pybullet_envs_gymnasium ships
-it, `raw` with `bench.harness.bullet_speed` (what every trial runs; same trajectories); on a
-MuJoCo id both are gymnasium's env. `batched` steps the MuJoCo task in EnvPool's C++ batch (8
+Prints one row per env. `raw (library)` steps the env as pybullet_envs_gymnasium or gymnasium
+ships it, `raw` with `bench.harness.bullet_speed` or `bench.harness.mujoco_speed` (what every
+trial runs; same trajectories). `batched` steps the MuJoCo task in EnvPool's C++ batch (8
 envs, one thread), where EnvPool is installed (`pip install envpool`); trials do not use it. `trpo/raw` =
 TRPO training throughput (updates included) over raw stepping: the simulator is the limit,
 everything else is overhead. `gaifo/raw` likewise for GAIfO (discriminator updates and
@@ -27,7 +27,7 @@ import time
 import numpy as np
 import torch
 
-from bench.harness import envs
+from bench.harness import envs, mujoco_speed
 from bench.harness.pixels import PixelConfig
 from bench.rl.shared_trunk import make_trpo
 from bench.rl.trpo import TRPOConfig, train
@@ -168,7 +168,8 @@ def main() -> None:
     parser.add_argument(
         "--library",
         action="store_true",
-        help="run everything with pybullet_envs_gymnasium's own stepping (bench.harness.bullet_speed off)",
+        help="run everything with the simulators' own stepping (bench.harness.bullet_speed and"
+        " bench.harness.mujoco_speed off)",
     )
     args = parser.parse_args()
     pixels = PixelConfig(size=args.frame_size) if args.pixels else None
@@ -190,7 +191,10 @@ def main() -> None:
             raw = raw_steps_per_s(env_id, args.steps, pixels)
             batched = float("nan")
         else:
-            library = raw = raw_steps_per_s(env_id, args.steps, pixels)
+            mujoco_speed.set_enabled(False)
+            library = raw_steps_per_s(env_id, args.steps, pixels)
+            mujoco_speed.set_enabled(not args.library)
+            raw = raw_steps_per_s(env_id, args.steps, pixels)
             batched = batched_steps_per_s(env_id, args.steps) if pixels is None else float("nan")
         trpo = trpo_steps_per_s(env_id, args.steps, pixels)
         gaifo = gaifo_steps_per_s(env_id, args.steps, pixels)

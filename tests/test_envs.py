@@ -51,6 +51,64 @@ def test_the_speed_patches_step_like_the_library(env_id):
     np.testing.assert_array_equal(fast[1], library[1])
 
 
+def steps_of(env, actions: np.ndarray, seed: int) -> list:
+    """Every reset observation and step result (infos included) of `actions`, resetting at ends."""
+    out = [env.reset(seed=seed)[0]]
+    for a in actions:
+        o, reward, term, trunc, info = env.step(a)
+        out += [o, reward, type(reward), term, trunc, info]
+        if term or trunc:
+            out.append(env.reset()[0])
+    return out
+
+
+def assert_bit_equal(a, b) -> None:
+    assert type(a) is type(b)
+    if isinstance(a, dict):
+        assert list(a) == list(b)
+        for key in a:
+            assert_bit_equal(a[key], b[key])
+    elif isinstance(a, np.ndarray):
+        assert a.dtype == b.dtype
+        np.testing.assert_array_equal(a, b)
+    else:
+        assert a == b
+
+
+@pytest.mark.parametrize("env_id", ["Hopper-v5", "Walker2d-v5", "HalfCheetah-v5", "Ant-v5"])
+def test_the_mujoco_speed_up_steps_like_the_library(env_id):
+    """bench.harness.mujoco_speed computes each step's values once instead of twice: the same
+    observations, rewards (and their types), ends and infos as gymnasium's own step, to the bit,
+    through falls and resets, at full and at gentle random actions."""
+    import gymnasium as gym
+
+    fast = envs.make(env_id, 0)
+    library = gym.make(env_id, disable_env_checker=True)
+    assert "step" in vars(fast.unwrapped) and "step" not in vars(library.unwrapped)
+    rng = np.random.default_rng(5)
+    actions = rng.uniform(-1, 1, size=(1500, fast.action_space.shape[0])).astype(np.float32)
+    for scale in (1.0, 0.3):
+        got, want = steps_of(fast, actions * scale, 5), steps_of(library, actions * scale, 5)
+        assert len(got) == len(want)
+        for a, b in zip(got, want, strict=True):
+            assert_bit_equal(a, b)
+    assert sum(isinstance(x, bool) and x for x in want) > 0 or env_id == "HalfCheetah-v5"
+    fast.close()
+    library.close()
+
+
+def test_the_mujoco_speed_up_leaves_other_options_to_the_library():
+    import gymnasium as gym
+
+    from bench.harness import mujoco_speed
+
+    ant = mujoco_speed.speed_up(gym.make("Ant-v5", include_cfrc_ext_in_observation=False))
+    hopper = mujoco_speed.speed_up(
+        gym.make("Hopper-v5", exclude_current_positions_from_observation=False)
+    )
+    assert "step" not in vars(ant.unwrapped) and "step" not in vars(hopper.unwrapped)
+
+
 def test_unknown_env_is_one_clear_error():
     with pytest.raises(envs.EnvError, match="unknown env id 'NoSuchEnv-v0'"):
         envs.make("NoSuchEnv-v0", 0)
