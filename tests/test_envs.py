@@ -97,8 +97,10 @@ def test_the_mujoco_speed_up_steps_like_the_library(env_id):
     library.close()
 
 
-def test_the_mujoco_speed_up_leaves_other_options_to_the_library():
+def test_the_mujoco_speed_up_leaves_other_options_to_the_library(tmp_path, monkeypatch):
     import gymnasium as gym
+
+    monkeypatch.chdir(tmp_path)  # MuJoCo's notes on Ant's model file land in MUJOCO_LOG.TXT here
 
     from bench.harness import mujoco_speed
 
