@@ -126,7 +126,8 @@ def make(env_id: str, seed: int, pixels: PixelConfig | None = None) -> gym.Env:
     (`pixels.shape` restores them), and the simulator state rides along in `info["state"]`.
     """
     check_env_id(env_id)
-    if is_mujoco(env_id):
+    on_mujoco = is_mujoco(env_id)
+    if on_mujoco:
         _route_mujoco_warnings()
     with quiet_stdout():
         if pixels is None:
@@ -136,7 +137,7 @@ def make(env_id: str, seed: int, pixels: PixelConfig | None = None) -> gym.Env:
                 env_id, render_mode="rgb_array", disable_env_checker=True, **_canvas(env_id, pixels)
             )
             env = gym.wrappers.FlattenObservation(Frames(rendered, pixels))
-        if is_mujoco(env_id):
+        if on_mujoco:
             from bench.harness import mujoco_speed  # imports mujoco: only where it is used
 
             mujoco_speed.speed_up(env)  # the same trajectories, less Python per step

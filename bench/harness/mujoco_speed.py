@@ -42,9 +42,8 @@ def speed_up(env: gym.Env) -> gym.Env:
     task = env.unwrapped
     fast = _fast_step(task) if _enabled else None
     if fast is not None:
-        task._step_dt = (
-            task.model.opt.timestep * task.frame_skip
-        )  # `dt`, as the library computes it
+        # `dt`, as the library's property computes it, once
+        task._step_dt = task.model.opt.timestep * task.frame_skip
         task.step = MethodType(fast, task)
     return env
 
@@ -91,18 +90,26 @@ def _control_cost(task: Any, action: np.ndarray) -> Any:
     return task._ctrl_cost_weight * _sum_of_squares(action)
 
 
-def _planar_walker_step(task: Any, action: np.ndarray, healthy: Callable[[Any], Any]) -> tuple:
-    """Hopper's and Walker2d's step (the same code but for `is_healthy`), `healthy` run once."""
+def _planar_advance(task: Any, action: np.ndarray, clip_velocity: bool) -> tuple:
+    """Simulate one step of a planar task (Hopper, Walker2d, HalfCheetah): its x position after,
+    its x velocity and its observation (velocities clipped to +-10 where `clip_velocity`, as
+    Hopper's and Walker2d's are)."""
     qpos = task.data.qpos
     x_position_before = qpos[0]
     _simulate(task, action)
     x_position_after = qpos[0]
     x_velocity = (x_position_after - x_position_before) / task._step_dt
+    velocity = task.data.qvel.flatten()
+    if clip_velocity:
+        velocity = velocity.clip(-10, 10)  # np.clip, undispatched
+    observation = np.concatenate((qpos.flatten()[1:], velocity)).ravel()
+    return x_position_after, x_velocity, observation
 
-    position = qpos.flatten()[1:]
-    velocity = task.data.qvel.flatten().clip(-10, 10)  # np.clip, undispatched
-    observation = np.concatenate((position, velocity)).ravel()
 
+def _planar_walker_step(task: Any, action: np.ndarray, healthy: Callable[[Any], Any]) -> tuple:
+    """Hopper's and Walker2d's step (the same code but for `is_healthy`), `healthy` run once."""
+    x_position_after, x_velocity, observation = _planar_advance(task, action, clip_velocity=True)
+    qpos = task.data.qpos
     is_healthy = healthy(task)
     forward_reward = task._forward_reward_weight * x_velocity
     healthy_reward = is_healthy * task._healthy_reward
@@ -151,16 +158,7 @@ def _walker2d(task: Any, action: np.ndarray) -> tuple:
 
 
 def _half_cheetah(task: Any, action: np.ndarray) -> tuple:
-    qpos = task.data.qpos
-    x_position_before = qpos[0]
-    _simulate(task, action)
-    x_position_after = qpos[0]
-    x_velocity = (x_position_after - x_position_before) / task._step_dt
-
-    position = qpos.flatten()[1:]
-    velocity = task.data.qvel.flatten()
-    observation = np.concatenate((position, velocity)).ravel()
-
+    x_position_after, x_velocity, observation = _planar_advance(task, action, clip_velocity=False)
     forward_reward = task._forward_reward_weight * x_velocity
     ctrl_cost = _control_cost(task, action)
     reward = forward_reward - ctrl_cost
