@@ -1,6 +1,7 @@
 """BCO and TCN for real: tiny-budget trials through the runner, the inverse model, TCN's sampling."""
 
 import dataclasses
+import types
 
 import numpy as np
 import pytest
@@ -94,6 +95,23 @@ def test_inverse_model_recovers_random_actions():
     )
     error = inverse_dynamics.inverse_error(model, transitions(2000, 50))
     assert error["inverse_val_r2"] > 0.95, error  # actions have variance 1/3; MSE < 0.017
+
+
+def test_bco_clones_on_normalized_or_raw_inputs():
+    """input_norm picks what the cloned policy's inputs are scaled by; only its two values."""
+    gen = torch.Generator().manual_seed(0)
+    s = torch.randn(512, 3, generator=gen, dtype=torch.float64).float() * 0.01 + 2.0
+    a = torch.tanh(s.sum(1, keepdim=True) - 6.0)
+    task = types.SimpleNamespace(obs_dim=3, act_dim=1)
+    fast = dict(bc_steps=5, minibatch=64)
+    by_demos, _ = bco.clone(s, a, task, bco.BCOConfig(**fast), gen)
+    raw, _ = bco.clone(s, a, task, bco.BCOConfig(input_norm="none", **fast), gen)
+    assert torch.allclose(by_demos.norm.mean.float(), s.mean(0), atol=1e-5)
+    assert torch.allclose(by_demos.norm.var.float(), s.var(0, unbiased=False), rtol=1e-3)
+    assert torch.equal(raw.norm.mean, torch.zeros(3, dtype=torch.float64))
+    assert torch.equal(raw.norm.var, torch.ones(3, dtype=torch.float64))
+    with pytest.raises(ValueError, match="input_norm must be one of 'demos', 'none'"):
+        bco.BCOConfig(input_norm="agent")
 
 
 def test_triplets_respect_window_and_margin():
