@@ -207,7 +207,13 @@ def train_adversarial(
     expert_x = expert.map(torch.as_tensor)
     norm = disc_normalizer(task, learner.policy.norm, demos, cfg.disc_norm)
     disc = Discriminator(
-        norm, features, task.judged_shape, task.act_dim, cfg.disc_hidden, cfg.absorbing
+        norm,
+        features,
+        task.judged_shape,
+        task.act_dim,
+        cfg.disc_hidden,
+        cfg.absorbing,
+        cfg.disc_obs_dims,
     )
     seen_dim = int(np.prod(task.judged_shape))
     opt = torch.optim.Adam(disc.parameters(), lr=cfg.disc_lr)

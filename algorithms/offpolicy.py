@@ -146,7 +146,9 @@ def train_offpolicy_adversarial(
     device = sac.usable_device(cfg.device)
     expert = expert_replay(demos, expert_actions, task.act_dim, cfg.absorbing).to(device)
     norm = RunningNorm.of(np.concatenate(demos.observations))  # D's scale: the expert's, fixed
-    disc = Discriminator(norm, features, task.obs_dim, task.act_dim, cfg.disc_hidden, True)
+    disc = Discriminator(
+        norm, features, task.obs_dim, task.act_dim, cfg.disc_hidden, True, cfg.disc_obs_dims
+    )
     disc = disc.to(device)
     reward_fn = CurrentDReward(disc, expert, cfg, seed)
     return train_on_reward(task, budget, seed, logger, cfg, reward_fn)

@@ -64,6 +64,30 @@ def test_a_paused_discriminator_takes_no_step_and_still_reports_its_losses():
     assert not all(torch.equal(a, b) for a, b in zip(before, disc.parameters(), strict=True))
 
 
+def test_d_judges_only_the_state_entries_it_is_given():
+    from bench.imitation.discriminator import Discriminator
+    from bench.rl.absorbing import Transitions
+
+    def judged(obs: np.ndarray, disc: Discriminator) -> torch.Tensor:
+        x = Transitions.real(obs, np.zeros((len(obs), 1), np.float32), obs)
+        return disc(x.map(torch.as_tensor))
+
+    torch.manual_seed(0)
+    pair = lambda s, a, s2: torch.cat([s, s2], 1)  # noqa: E731
+    disc = Discriminator(RunningNorm(5), pair, 5, 1, (8,), True, obs_dims=3)
+    assert disc.net[0].in_features == 2 * (3 + 1)  # s and s', each 3 entries and the flag
+    obs = np.random.default_rng(0).normal(size=(16, 5)).astype(np.float32)
+    tail_changed, head_changed = obs.copy(), obs.copy()
+    tail_changed[:, 3:] += 100.0
+    head_changed[:, :3] += 1.0
+    assert torch.equal(judged(obs, disc), judged(tail_changed, disc))
+    assert not torch.allclose(judged(obs, disc), judged(head_changed, disc))
+    with pytest.raises(ValueError, match="disc_obs_dims \\(6\\) needs state vectors"):
+        Discriminator(RunningNorm(5), pair, 5, 1, (8,), True, obs_dims=6)
+    with pytest.raises(ValueError, match="disc_obs_dims must be >= 1"):
+        AdversarialConfig(disc_obs_dims=0)
+
+
 @pytest.mark.parametrize("share", [0.4, 1.01])
 def test_a_pause_threshold_outside_half_to_one_is_refused(share):
     with pytest.raises(ValueError, match="disc_pause_above must be in"):

@@ -54,11 +54,18 @@ class DiscriminatorConfig:
     separates them perfectly and its reward goes flat over the policy's states; blurred, the
     boundary stays a slope that points to the expert's states (Sønderby et al. 2017, Arjovsky
     and Bottou 2017). 0: none."""
+    disc_obs_dims: int | None = added_later(None)
+    """D judges only the first this many entries of each state vector (of s and s'; the policy
+    still sees all of them); None: all. For observations whose tail D should not judge, as
+    Ant-v5's 78 contact forces after its 27 positions and velocities: where only the feet
+    ever touch the ground, those entries are zero for the expert and spike wherever the
+    policy touches it otherwise. States only, not frames."""
 
     def __post_init__(self) -> None:
         layers(self, "disc_hidden")
         above(self, 0, "disc_lr")
         at_least(self, 0, "grad_penalty", "gp_target", "disc_entropy", "disc_noise")
+        at_least(self, 1, "disc_obs_dims")
 
 
 def discriminator_loss(
@@ -135,11 +142,19 @@ class Discriminator(nn.Module):
         act_dim: int,
         hidden: tuple[int, ...],
         with_absorbing: bool,
+        obs_dims: int | None = None,
     ) -> None:
-        """`obs_shape`: (O,) or O for state vectors, (C, H, W) for flat frames."""
+        """`obs_shape`: (O,) or O for state vectors, (C, H, W) for flat frames. `obs_dims`: D
+        judges only the first this many of a state vector's O entries (None: all)."""
         super().__init__()
         self.norm, self.features, self.with_absorbing = norm, features, with_absorbing
         shape = shape_of(obs_shape)
+        if obs_dims is not None and (len(shape) != 1 or obs_dims > shape[0]):
+            raise ValueError(
+                f"disc_obs_dims ({obs_dims}) needs state vectors of at least that many entries,"
+                f" not observations of shape {shape}"
+            )
+        self.obs_dims = obs_dims
         self.encoder = ConvTrunk(shape) if len(shape) == 3 else nn.Identity()
         zeros = torch.zeros(1, int(np.prod(shape)))
         state = self.state(zeros, torch.zeros(1, dtype=torch.bool))
@@ -151,6 +166,8 @@ class Discriminator(nn.Module):
         absorbing flag; the absorbing state is (0, ..., 0, FLAG). (N, F), the observation
         alone, without absorbing states."""
         seen = self.encoder(self.norm(obs))
+        if self.obs_dims is not None:
+            seen = seen[:, : self.obs_dims]
         if not self.with_absorbing:
             return seen
         flag = is_absorbing.float().unsqueeze(1)
