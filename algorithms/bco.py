@@ -70,12 +70,11 @@ class BCOConfig:
     """Initial log std of the policy; cloning then fits it by maximum likelihood."""
     input_norm: str = added_later("demos")
     """What the policy's input normalizer is fitted to: "demos" (the demonstrations' states) or
-    "none" (raw inputs). Where the expert holds a pose, its states span a tiny region
-    (InvertedDoublePendulum-v5: the cart's position varies by 0.032, the poles' sines by 0.016
-    and 0.007), and normalizing by
-    them magnifies a cloned policy's first small drift into inputs it never saw: cloning the
-    expert's own actions from 25 demonstrations scores 0.05-0.06 with "demos" and 0.90-1.00
-    with "none" (`benchmarks/clone_expert.py`)."""
+    "none" (raw inputs). Where the expert holds a pose its states span a tiny region, and
+    normalizing by them magnifies a cloned policy's first small drift into inputs it never saw:
+    on InvertedDoublePendulum-v5 (the cart's position varies by 0.032, the poles' sines by
+    0.016 and 0.007) cloning the expert's own actions from 25 demonstrations scores 0.05-0.06
+    with "demos" and 0.90-1.00 with "none" (`benchmarks/clone_expert.py`)."""
 
     def __post_init__(self) -> None:
         layers(self, "inverse_hidden", "policy_hidden")
