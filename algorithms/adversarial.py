@@ -50,6 +50,7 @@ from bench.rl.networks import (
 from bench.rl.rollout import Batch, Rewards
 from bench.rl.shared_trunk import make_trpo
 from bench.rl.trpo import train
+from bench.validate import at_least, one_of
 
 DISC_NORMS = ("policy", "expert")
 """How D may scale states: by the policy's running statistics, or the demonstrations' fixed ones."""
@@ -97,20 +98,11 @@ class AdversarialConfig(ImitationTRPOConfig, DiscriminatorConfig):
     def __post_init__(self) -> None:
         super().__post_init__()
         DiscriminatorConfig.__post_init__(self)
-        if self.absorbing_floor not in ABSORBING_FLOORS:
-            raise ValueError(
-                f"absorbing_floor must be one of {', '.join(map(repr, ABSORBING_FLOORS))},"
-                f" not {self.absorbing_floor!r}"
-            )
+        one_of(self, "absorbing_floor", ABSORBING_FLOORS)
         if self.absorbing_floor != "none" and not self.absorbing:
             raise ValueError("absorbing_floor needs absorbing states (absorbing: true)")
-        if self.disc_norm not in DISC_NORMS:
-            raise ValueError(
-                f"disc_norm must be one of {', '.join(map(repr, DISC_NORMS))}, not {self.disc_norm!r}"
-            )
-        for name in ("disc_steps", "disc_minibatch"):
-            if getattr(self, name) < 1:
-                raise ValueError(f"{name} must be >= 1, not {getattr(self, name)}")
+        one_of(self, "disc_norm", DISC_NORMS)
+        at_least(self, 1, "disc_steps", "disc_minibatch")
         if self.disc_minibatch > self.batch_size:  # D draws its policy side from one batch
             raise ValueError(
                 f"disc_minibatch ({self.disc_minibatch}) is more than a TRPO batch holds"
@@ -118,10 +110,7 @@ class AdversarialConfig(ImitationTRPOConfig, DiscriminatorConfig):
             )
         if not 0.5 <= self.disc_pause_above <= 1:
             raise ValueError(f"disc_pause_above must be in [0.5, 1], not {self.disc_pause_above}")
-        if self.reward not in REWARDS:
-            raise ValueError(
-                f"reward must be one of {', '.join(map(repr, REWARDS))}, not {self.reward!r}"
-            )
+        one_of(self, "reward", REWARDS)
 
 
 def disc_normalizer(

@@ -32,7 +32,7 @@ from bench.imitation.inverse_dynamics import InverseModel, fit_inverse, inverse_
 from bench.rl.networks import DeterministicPolicy, GaussianPolicy
 from bench.rl.resume import TORCH_RNG, Resumable
 from bench.rl.rollout import VecCollector
-from bench.validate import above, at_least, layers
+from bench.validate import above, at_least, layers, one_of
 
 INPUT_NORMS = ("demos", "none")
 
@@ -85,11 +85,7 @@ class BCOConfig:
         at_least(self, 1, "inverse_steps", "inverse_refit_steps", "bc_steps", "minibatch")
         at_least(self, 0, "max_iterations")
         above(self, 0, "inverse_lr", "bc_lr")
-        if self.input_norm not in INPUT_NORMS:
-            raise ValueError(
-                f"input_norm must be one of {', '.join(map(repr, INPUT_NORMS))},"
-                f" not {self.input_norm!r}"
-            )
+        one_of(self, "input_norm", INPUT_NORMS)
 
 
 def clone(

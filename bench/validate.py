@@ -10,6 +10,7 @@ field they bound. The suite file's own schema is `bench.harness.suite.schema`.
 from __future__ import annotations
 
 import json
+from collections.abc import Collection
 from functools import cache
 from typing import Any
 
@@ -57,6 +58,14 @@ def above(config: object, minimum: float, *names: str) -> None:
         value = getattr(config, name)
         if value is not None and value <= minimum:
             raise ValueError(f"{name} must be > {minimum}, not {value}")
+
+
+def one_of(config: object, name: str, choices: Collection[str]) -> None:
+    """For a config's `__post_init__`: raise ValueError unless `name`'s value is one of
+    `choices` (a setting that picks a variant by name)."""
+    value = getattr(config, name)
+    if value not in choices:
+        raise ValueError(f"{name} must be one of {', '.join(map(repr, choices))}, not {value!r}")
 
 
 def layers(config: object, *names: str) -> None:

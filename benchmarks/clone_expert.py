@@ -18,9 +18,9 @@ import argparse
 
 import numpy as np
 import torch
+from references import reference_returns  # benchmarks/references.py, beside this script
 
 from algorithms.bco import INPUT_NORMS, BCOConfig, clone
-from bench.harness import envs, experts
 from bench.harness.trial import EVAL_SEED, StepTally, plan
 from bench.harness.types import TrialSpec
 from bench.rl.networks import DeterministicPolicy
@@ -60,12 +60,7 @@ def main() -> None:
     parser.add_argument("--input-norm", choices=INPUT_NORMS, default="demos")
     args = parser.parse_args()
     torch.set_num_threads(1)
-    # References as the runner measures them: uniform random actions and the shipped expert.
-    rng = np.random.default_rng(0)
-    _, act_dim, low, high = envs.spaces(args.env)
-    ref_envs = [envs.make(args.env, 10_000 + i) for i in range(5)]
-    lo = np.mean(evaluate(lambda o: rng.uniform(low, high, (len(o), act_dim)), ref_envs, 5, 10_000))
-    hi = np.mean(evaluate(experts.load_expert(args.env), ref_envs, 5, 10_000))
+    lo, hi = reference_returns(args.env)
     print(
         f"cloning the expert's actions on {args.env}, {args.demos} demo(s), input_norm {args.input_norm}:"
     )

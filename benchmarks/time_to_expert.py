@@ -20,8 +20,9 @@ import time
 import joblib
 import numpy as np
 import torch
+from references import reference_returns  # benchmarks/references.py, beside this script
 
-from bench.harness import envs, experts
+from bench.harness import envs
 from bench.harness.trial import StepTally, plan
 from bench.harness.types import TrialSpec
 from bench.rl.rollout import evaluate
@@ -85,14 +86,7 @@ def main() -> None:
     parser.add_argument("--budget", type=int, default=200_000)
     parser.add_argument("--hyperparams", type=json.loads, default={}, help="JSON config overrides")
     args = parser.parse_args()
-    # References as the runner measures them: uniform random actions and the shipped expert.
-    rng = np.random.default_rng(0)
-    _, act_dim, low, high = envs.spaces(args.env)
-    eval_envs = [envs.make(args.env, 10_000 + i) for i in range(5)]
-    lo = np.mean(
-        evaluate(lambda o: rng.uniform(low, high, (len(o), act_dim)), eval_envs, 5, 10_000)
-    )
-    hi = np.mean(evaluate(experts.load_expert(args.env), eval_envs, 5, 10_000))
+    lo, hi = reference_returns(args.env)
     specs = [
         TrialSpec(
             "speed", args.env, args.algorithm, args.demos, s, args.budget, 5, args.hyperparams
