@@ -34,6 +34,7 @@ from bench.imitation.discriminator import (
 from bench.imitation.rewards import replay_transitions
 from bench.rl import resume, sac
 from bench.rl.networks import RunningNorm
+from bench.validate import one_of
 
 
 @dataclass
@@ -51,8 +52,7 @@ class OffPolicyAdversarialConfig(OffPolicyConfig, DiscriminatorConfig):
     def __post_init__(self) -> None:
         super().__post_init__()
         DiscriminatorConfig.__post_init__(self)
-        if self.reward not in REWARDS:
-            raise ValueError(f"reward must be one of {', '.join(map(repr, REWARDS))}")
+        one_of(self, "reward", REWARDS)
 
 
 def sac_budget(config: OffPolicyConfig) -> int:
