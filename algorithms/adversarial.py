@@ -32,8 +32,8 @@ from bench.imitation.data import Demos
 from bench.imitation.discriminator import (
     REWARDS,
     Discriminator,
-    DiscriminatorConfig,
     Features,
+    RewardingDiscriminatorConfig,
     discriminator_log,
     discriminator_loss,
     expert_transitions,
@@ -61,7 +61,7 @@ mean or lowest reward."""
 
 
 @dataclass
-class AdversarialConfig(ImitationTRPOConfig, DiscriminatorConfig):
+class AdversarialConfig(ImitationTRPOConfig, RewardingDiscriminatorConfig):
     """The imitators' TRPO settings (inherited, shared with the survival control), D's, and how
     the on-policy loop trains D and rewards the policy."""
 
@@ -70,10 +70,6 @@ class AdversarialConfig(ImitationTRPOConfig, DiscriminatorConfig):
     wants more: the suites give InvertedPendulum 25 (README, "D's pace per task")."""
     disc_minibatch: int = 256
     """Policy samples (and as many expert samples) per discriminator step."""
-    reward: str = "log D - log(1-D)"
-    """Policy reward as a function of D = P(expert): "log D - log(1-D)" (D's logit: either sign,
-    so with absorbing states it pays neither for surviving nor for falling), "-log(1-D)" (always
-    positive: pays for every step alive) or "log D" (always negative: pays for ending early)."""
     absorbing: bool = True
     """Terminations lead into an absorbing state that D judges (bench.rl.absorbing); off: valued 0."""
     disc_norm: str = "policy"
@@ -97,7 +93,7 @@ class AdversarialConfig(ImitationTRPOConfig, DiscriminatorConfig):
 
     def __post_init__(self) -> None:
         super().__post_init__()
-        DiscriminatorConfig.__post_init__(self)
+        RewardingDiscriminatorConfig.__post_init__(self)
         one_of(self, "absorbing_floor", ABSORBING_FLOORS)
         if self.absorbing_floor != "none" and not self.absorbing:
             raise ValueError("absorbing_floor needs absorbing states (absorbing: true)")
@@ -110,7 +106,6 @@ class AdversarialConfig(ImitationTRPOConfig, DiscriminatorConfig):
             )
         if not 0.5 <= self.disc_pause_above <= 1:
             raise ValueError(f"disc_pause_above must be in [0.5, 1], not {self.disc_pause_above}")
-        one_of(self, "reward", REWARDS)
 
 
 def disc_normalizer(

@@ -26,15 +26,14 @@ from bench.imitation.data import ActionDemos, Demos
 from bench.imitation.discriminator import (
     REWARDS,
     Discriminator,
-    DiscriminatorConfig,
     Features,
+    RewardingDiscriminatorConfig,
     discriminator_log,
     discriminator_loss,
 )
 from bench.imitation.rewards import replay_transitions
 from bench.rl import resume, sac
 from bench.rl.networks import RunningNorm
-from bench.validate import one_of
 
 
 @dataclass
@@ -43,16 +42,12 @@ class OffPolicyConfig(sac.SACConfig):
 
 
 @dataclass
-class OffPolicyAdversarialConfig(OffPolicyConfig, DiscriminatorConfig):
+class OffPolicyAdversarialConfig(OffPolicyConfig, RewardingDiscriminatorConfig):
     """The off-policy imitators' SAC settings plus D's (the on-policy learners' D)."""
-
-    reward: str = "log D - log(1-D)"
-    """Reward as a function of D: see `bench.imitation.discriminator.REWARDS`."""
 
     def __post_init__(self) -> None:
         super().__post_init__()
-        DiscriminatorConfig.__post_init__(self)
-        one_of(self, "reward", REWARDS)
+        RewardingDiscriminatorConfig.__post_init__(self)
 
 
 def sac_budget(config: OffPolicyConfig) -> int:

@@ -22,7 +22,7 @@ from bench.fields import added_later
 from bench.rl import absorbing
 from bench.rl.absorbing import Transitions
 from bench.rl.networks import ConvTrunk, ObsShape, PixelScale, RunningNorm, mlp, shape_of
-from bench.validate import above, at_least, layers
+from bench.validate import above, at_least, layers, one_of
 
 REWARDS: dict[str, Callable[[torch.Tensor], torch.Tensor]] = {
     "-log(1-D)": lambda logit: F.softplus(logit),  # -log(1 - sigmoid(x)) = softplus(x) > 0
@@ -66,6 +66,21 @@ class DiscriminatorConfig:
         above(self, 0, "disc_lr")
         at_least(self, 0, "grad_penalty", "gp_target", "disc_entropy", "disc_noise")
         at_least(self, 1, "disc_obs_dims")
+
+
+@dataclass
+class RewardingDiscriminatorConfig(DiscriminatorConfig):
+    """D's settings where D's verdict is the policy's reward (GAIfO and GAIL on either
+    optimizer); OPOLO's D shapes its critic instead and takes no reward choice."""
+
+    reward: str = "log D - log(1-D)"
+    """Policy reward as a function of D = P(expert): "log D - log(1-D)" (D's logit: either sign,
+    so with absorbing states it pays neither for surviving nor for falling), "-log(1-D)" (always
+    positive: pays for every step alive) or "log D" (always negative: pays for ending early)."""
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        one_of(self, "reward", REWARDS)
 
 
 def discriminator_loss(
