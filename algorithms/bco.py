@@ -28,7 +28,12 @@ import torch
 from bench.fields import added_later
 from bench.harness.registry import Logger, Policy, Task, register, snapshots_of
 from bench.imitation.data import Demos
-from bench.imitation.inverse_dynamics import InverseModel, fit_inverse, inverse_error
+from bench.imitation.inverse_dynamics import (
+    InverseModel,
+    TransitionRows,
+    fit_inverse,
+    inverse_error,
+)
 from bench.rl.networks import DeterministicPolicy, GaussianPolicy
 from bench.rl.resume import TORCH_RNG, Resumable
 from bench.rl.rollout import VecCollector
@@ -137,18 +142,14 @@ def train(
     demo_s, demo_next = (torch.from_numpy(x) for x in demos.transitions())
     model = InverseModel(task.obs_dim, task.act_dim, cfg.inverse_hidden)
     model_opt = torch.optim.Adam(model.net.parameters(), lr=cfg.inverse_lr)
-    train_data: list[tuple[np.ndarray, ...]] = []  # the agent's own (s, a, s'), in chunks
-    val_data: list[tuple[np.ndarray, ...]] = []
+    train_data, val_data = TransitionRows(), TransitionRows()  # the agent's own (s, a, s')
 
     def add(chunk: tuple[np.ndarray, np.ndarray, np.ndarray]) -> None:
         """Split a chunk of (s, a, s') into training and held-out parts; update M's normalizers."""
         held = rng.random(len(chunk[0])) < cfg.val_fraction
-        train_data.append(tuple(x[~held] for x in chunk))
-        val_data.append(tuple(x[held] for x in chunk))
+        train_data.append(*(x[~held] for x in chunk))
+        val_data.append(*(x[held] for x in chunk))
         model.update_norms(chunk[0], chunk[2])
-
-    def stacked(parts: list[tuple[np.ndarray, ...]]) -> tuple[torch.Tensor, ...]:
-        return tuple(torch.from_numpy(np.concatenate(x)) for x in zip(*parts, strict=True))
 
     def uniform(obs: np.ndarray) -> np.ndarray:
         return rng.uniform(low, high, size=(len(obs), task.act_dim)).astype(np.float32)
@@ -185,8 +186,8 @@ def train(
     )
 
     def counters() -> dict:
-        """The loop's counters, and M's data as one chunk: it is only ever stacked."""
-        data = [list(stacked(parts)) for parts in (train_data, val_data)]
+        """The loop's counters, and M's data."""
+        data = [list(rows.tensors()) for rows in (train_data, val_data)]
         return {"steps": steps, "iteration": iteration, "data": data}
 
     try:
@@ -194,13 +195,13 @@ def train(
             steps, iteration = collect(uniform, cfg.pre_demo_steps), 0  # pre-demonstration phase
         else:
             steps, iteration = resumed["steps"], resumed["iteration"]
-            for kept, saved in zip((train_data, val_data), resumed["data"], strict=True):
-                kept.append(tuple(x.numpy() for x in saved))
+            for rows, saved in zip((train_data, val_data), resumed["data"], strict=True):
+                rows.append(*(x.numpy() for x in saved))
         while True:
             resume.save_if_due(counters)
             fit_steps = cfg.inverse_steps if iteration == 0 else cfg.inverse_refit_steps
             inverse_loss = fit_inverse(
-                model, model_opt, stacked(train_data), fit_steps, cfg.minibatch, gen
+                model, model_opt, train_data.tensors(), fit_steps, cfg.minibatch, gen
             )
             with torch.no_grad():  # label the demonstrations with M's best guess
                 labels = model(demo_s, demo_next).clamp(
@@ -211,7 +212,7 @@ def train(
                 steps,
                 inverse_train_mse=inverse_loss,
                 bc_nll=bc_nll,
-                **inverse_error(model, stacked(val_data)),
+                **inverse_error(model, val_data.tensors()),
             )
             logger.checkpoint(steps, DeterministicPolicy(policy, low, high))
             n = min(chunk, budget - steps)  # never past the budget: the last chunk may be short

@@ -97,6 +97,29 @@ def test_inverse_model_recovers_random_actions():
     assert error["inverse_val_r2"] > 0.95, error  # actions have variance 1/3; MSE < 0.017
 
 
+def test_transition_rows_read_as_the_concatenated_chunks():
+    """Rows grown chunk by chunk read back as np.concatenate would give them, dtype included
+    (BCO's first chunk has float32 actions, its policy's later ones float64), and a view taken
+    earlier keeps its rows through later appends and regrowths."""
+    rng = np.random.default_rng(0)
+    chunks = [
+        (rng.random((n, 3), np.float32), rng.random((n, 2)).astype(dtype))
+        for n, dtype in [(5, np.float32), (0, np.float32), (7, np.float64), (40, np.float64)]
+    ]
+    rows = inverse_dynamics.TransitionRows()
+    early = None
+    for i, chunk in enumerate(chunks):
+        rows.append(*chunk)
+        if i == 0:
+            early = [t.clone() for t in rows.tensors()], rows.tensors()
+    assert len(rows) == 52
+    for got, parts in zip(rows.tensors(), zip(*chunks, strict=True), strict=True):
+        want = np.concatenate(parts)
+        assert got.numpy().dtype == want.dtype and np.array_equal(got.numpy(), want)
+    for kept, view in zip(*early, strict=True):
+        assert torch.equal(kept, view)
+
+
 def test_bco_clones_on_normalized_or_raw_inputs():
     """input_norm picks what the cloned policy's inputs are scaled by; only its two values."""
     gen = torch.Generator().manual_seed(0)
