@@ -16,8 +16,8 @@ class TransitionRows:
     BCO refits M on every transition so far after each chunk. Concatenating the chunks anew
     each time copied the whole set per iteration (1.6 GB, 400 times, in a 2M-step Ant-v5
     trial); here each row is written once into arrays that grow by doubling, and `tensors` is
-    a view of the rows so far. Each column takes the dtype
-    `np.concatenate` would give its chunks, so what M is fitted on is the same to the bit.
+    a view of the rows so far. Each column takes the dtype `np.concatenate` would give its
+    chunks, so what M is fitted on is the same to the bit.
     """
 
     def __init__(self) -> None:
