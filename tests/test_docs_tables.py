@@ -37,7 +37,12 @@ def _table(page: Path, after: str = "") -> dict[str, dict[str, str]]:
 
 
 @pytest.mark.parametrize(
-    ("page", "suite"), [("README.md", "pybullet"), ("docs/results/locomotion.md", "pybullet")]
+    ("page", "suite"),
+    [
+        ("README.md", "pybullet"),
+        ("README.md", "mujoco"),
+        ("docs/results/locomotion.md", "pybullet"),
+    ],
 )
 def test_quoted_tables_match_the_committed_report(page, suite):
     report_md = f"{suite}/report/report.md"  # the docs site reaches results/ as records/
