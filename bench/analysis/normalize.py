@@ -50,10 +50,17 @@ def check_one_record_per_seed(df: pd.DataFrame) -> None:
     repeated = counts[counts > 1]
     if len(repeated):
         (env_id, algorithm, n_demos, seed), n = next(iter(repeated.items()))
+        cell = df.set_index(keys).index == (env_id, algorithm, n_demos, seed)
+        files = (
+            ", ".join(f"trials/{t}.json" for t in df.loc[cell, "trial_id"])
+            if "trial_id" in df
+            else ""
+        )
         raise NormalizationError(
             f"{env_id}: {algorithm} with {n_demos} demos, seed {seed}, has "
             f"{n} records of different settings in one results folder "
-            f"({len(repeated)} such cells); move the stale records out of it"
+            f"({len(repeated)} such cells){f': {files}' if files else ''}; move the stale"
+            " records out of it"
         )
 
 

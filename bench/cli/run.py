@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import os
 import sys
+from collections import Counter
 from pathlib import Path
 
 from bench.cli.args import duration, folder, jobs_count
@@ -39,8 +40,11 @@ def _run(args: argparse.Namespace) -> int:
         )
     backend = args.backend or suite.runner.backend
     jobs = args.jobs if args.jobs is not None else suite.runner.jobs
+    # Finished trials are looked for beside the results folder, in the checkout's committed
+    # results (whatever --results says) and in every folder named by --reuse.
+    reuse = [results.parent, paths.RESULTS_DIR, *map(Path, args.reuse or ())]
     if args.estimate:
-        return _estimate(specs, results, jobs)
+        return _estimate(specs, results, jobs, reuse)
     from bench.harness import minari_io
 
     for env_id, dataset in sorted({(s.env_id, s.dataset) for s in specs if s.dataset}):
@@ -59,8 +63,13 @@ def _run(args: argparse.Namespace) -> int:
             tensorboard=args.tensorboard,
             first=suite.runner.first,
             limit=limit,
-            priced_by=results.parent,
+            priced_by=reuse,
             snapshot_every=args.snapshot_every,
+        )
+    if summary.set_aside:
+        print(
+            f"{summary.set_aside} records of these trials were trained by another version of"
+            f" their plugin's code: moved to {results}/{store.SET_ASIDE}/ (kept, never reused)"
         )
     linked = f", {summary.linked} of them by other suites (linked)" if summary.linked else ""
     print(
@@ -82,24 +91,34 @@ def _run(args: argparse.Namespace) -> int:
     return 1 if summary.failed else 0
 
 
-def _estimate(specs: list, results: Path, jobs: int) -> int:
-    """Print what the pending trials would cost, from every record under results/'s parent,
+def _estimate(specs: list, results: Path, jobs: int, reuse: list[Path]) -> int:
+    """Print what the pending trials would cost, from every record under the `reuse` folders,
     less what the snapshots of cut-off trials have behind them. Trials another suite's folder
-    has finished are not pending: a run links them."""
+    there has finished are not pending: a run links them (said per folder)."""
     from bench.harness import store
     from bench.harness.costs import estimate
     from bench.harness.runner import pending
     from bench.harness.snapshots import SnapshotPlan
 
+    stale = store.trained_by_other_code(results, specs)
     finished = {r.trial_id: store.status_of(r) for r in store.scan(results)}
     todo = pending(specs, finished, retry_failed=False)
-    elsewhere = store.find(results.parent, {s.trial_id for s in todo}, besides=results)
+    elsewhere = store.find(reuse, {s.trial_id for s in todo}, besides=results)
     todo = [s for s in todo if s.trial_id not in elsewhere]
     done_before = SnapshotPlan.of(results).done_before(todo)
-    rows = estimate(todo, store.scan_under(results.parent), done_before)
+    rows = estimate(todo, store.scan_under(reuse), done_before)
     print(f"{len(todo)} of {len(specs)} trials pending -> {results}/")
+    if stale:
+        print(
+            f"{len(stale)} records there were trained by another version of their plugin's"
+            f" code: a run moves them to {results}/{store.SET_ASIDE}/ and runs them again"
+        )
     if elsewhere:
-        print(f"{len(elsewhere)} more finished by other suites' runs: linked, not run again")
+        where = Counter(str(_shown_path(p.parent.parent)) for p in elsewhere.values())
+        print(
+            f"{len(elsewhere)} more finished by other runs, linked, not run again: "
+            + ", ".join(f"{n} from {folder}/" for folder, n in sorted(where.items()))
+        )
     width = max([36, *(len(r.env_id) for r in rows)])
     print(
         f"{'env':{width}s} {'algorithm':14s} {'trials':>6s} {'per trial':>10s} {'core-h':>7s}  basis"
@@ -125,6 +144,14 @@ def _estimate(specs: list, results: Path, jobs: int) -> int:
         + (f"; {unknown} trials with nothing to go by" if unknown else "")
     )
     return 0
+
+
+def _shown_path(path: Path) -> Path:
+    """`path` relative to the working folder where it lies below it, else absolute."""
+    try:
+        return path.resolve().relative_to(Path.cwd().resolve())
+    except ValueError:
+        return path.resolve()
 
 
 def add(sub: argparse._SubParsersAction) -> None:
@@ -162,6 +189,14 @@ def add(sub: argparse._SubParsersAction) -> None:
     )
     run.add_argument(
         "--jobs", type=jobs_count, help="parallel trials (default: the suite's, else all cores)"
+    )
+    run.add_argument(
+        "--reuse",
+        action="append",
+        metavar="DIR",
+        type=folder,
+        help="also link trials finished in results folders under DIR instead of running them"
+        " (repeatable; the results folder's parent and the checkout's results/ always are)",
     )
     run.add_argument("--retry-failed", action="store_true", help="rerun trials recorded as failed")
     run.add_argument(

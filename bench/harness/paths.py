@@ -8,6 +8,9 @@ from pathlib import Path
 REPO_ROOT = Path(__file__).resolve().parents[2]
 EXPERTS_DIR = Path(os.environ.get("IFO_BENCH_EXPERTS", REPO_ROOT / "results" / "experts"))
 """Shipped experts: <EXPERTS_DIR>/<env_id>/policy.pt and meta.json."""
+RESULTS_DIR = REPO_ROOT / "results"
+"""The checkout's committed results: every run looks here for trials already finished, wherever
+its own records go."""
 CACHE_DIR = Path(os.environ.get("IFO_BENCH_CACHE", REPO_ROOT / ".cache"))
 """Regenerable files (demonstration pools); safe to delete."""
 

@@ -36,10 +36,13 @@ import, e.g. in a package's pyproject.toml::
 from __future__ import annotations
 
 import dataclasses
+import hashlib
 import importlib.metadata
+import sys
 import warnings
 from collections.abc import Callable
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any, Literal, Protocol
 
 import gymnasium as gym
@@ -47,7 +50,9 @@ import numpy as np
 
 from bench import validate
 from bench.errors import BadInput
+from bench.harness import paths
 from bench.harness.pixels import PixelConfig
+from bench.rl import sac, td3, trpo
 from bench.rl.resume import Snapshots
 
 Inputs = Literal["none", "states", "actions", "expert"]
@@ -153,6 +158,10 @@ class Algorithm:
     learner's ceiling is the ceiling of its own family. None: it has none (the references)."""
     label: str = ""
     """Its name in figures and reports ("GAIfO"); "" : its registered name."""
+    code: str | None = None
+    """The identity of the code that trains it (`code_identity`): a hash of a plugin's source,
+    part of its trials' ids, so a changed plugin's trials run again; None for the built-ins,
+    whose records are committed and whose changes are reviewed instead."""
 
     @property
     def uses_actions(self) -> bool:
@@ -204,6 +213,8 @@ def register(
         raise ValueError(f"{name!r}: a {role} control needs the optimizer family it controls for")
     if not dataclasses.is_dataclass(config):
         raise TypeError(f"config of {name!r} must be a dataclass")
+    if family is None and role == "learner":
+        family = family_of(config)
 
     def wrap(train: TrainFn) -> TrainFn:
         doc = description or (train.__doc__ or "").strip().split("\n")[0]
@@ -218,39 +229,90 @@ def register(
             train,
             config,
             inputs,
-            doc,
-            pixels,
-            video_reward,
-            min_budget,
-            resumable,
-            role,
-            family,
-            label or name,
+            description=doc,
+            pixels=pixels,
+            video_reward=video_reward,
+            min_budget=min_budget,
+            resumable=resumable,
+            role=role,
+            family=family,
+            label=label or name,
+            code=code_identity(train),
         )
         return train
 
     return wrap
 
 
+_BROKEN: dict[str, str] = {}
+"""Algorithm and entry-point names of plugins that failed to import -> why: none of them runs,
+even where the module registered something before it failed."""
+
+FAMILY_CONFIGS: tuple[tuple[type, str], ...] = (
+    (td3.TD3Config, "td3"),  # before SAC's: TD3's config extends it
+    (sac.SACConfig, "sac"),
+    (trpo.TRPOConfig, "trpo"),
+)
+"""The optimizer a learner trains through, told by the config it extends."""
+
+
+def family_of(config: type) -> str | None:
+    """The optimizer family a learner's config says it trains through (it extends that
+    optimizer's config, as `ImitationTRPOConfig` extends TRPO's), or None."""
+    for base, family in FAMILY_CONFIGS:
+        if issubclass(config, base):
+            return family
+    return None
+
+
+_code_of_file: dict[str, str] = {}
+
+
+def code_identity(train: TrainFn) -> str | None:
+    """A hash of the source of the package (or module) that defines `train`, where that is a
+    plugin's; None for the built-ins (ifo-bench's own `algorithms` and `bench`) and for code
+    with no source file. Every .py file of the top-level package counts, so a change in a
+    helper module of the plugin counts too."""
+    module = sys.modules.get(getattr(train, "__module__", "") or "")
+    top = sys.modules.get((getattr(module, "__name__", "") or "").split(".")[0])
+    source = getattr(top, "__file__", None)
+    if source is None:
+        return None
+    root = Path(source).resolve()
+    if root.parent.name in ("algorithms", "bench") and root.parents[1] == paths.REPO_ROOT:
+        return None
+    files = sorted(root.parent.rglob("*.py")) if root.name == "__init__.py" else [root]
+    key = "\n".join(str(f) for f in files)
+    if key not in _code_of_file:
+        digest = hashlib.sha256()
+        for f in files:
+            digest.update(f.relative_to(root.parent).as_posix().encode() + b"\0")
+            digest.update(f.read_bytes() + b"\0")
+        _code_of_file[key] = digest.hexdigest()[:16]
+    return _code_of_file[key]
+
+
 def _load_all() -> None:
     """Import every module of the entry-point group once; importing one runs its @register.
     The built-ins are listed in ifo-bench's own pyproject.toml, so the registry depends on no
-    algorithm and no algorithm module is imported before it is asked for."""
+    algorithm and no algorithm module is imported before it is asked for. A module that fails
+    to import registers nothing, even what it registered before it failed (`_BROKEN`)."""
     global _loaded
     if _loaded:
         return
     _loaded = True
     for ep in importlib.metadata.entry_points(group=ENTRY_POINT_GROUP):
+        before = set(_ALGORITHMS)
         try:
             ep.load()
         except RegistryError:
             raise  # a name clash: which one a suite meant cannot be guessed
         except Exception as e:  # a broken plugin must not take every other algorithm down
-            warnings.warn(
-                f"plugin {ep.name!r} ({ep.value}) failed to import and is skipped: "
-                f"{type(e).__name__}: {e}",
-                stacklevel=2,
-            )
+            why = f"plugin {ep.name!r} ({ep.value}) failed to import: {type(e).__name__}: {e}"
+            for name in {ep.name, *(set(_ALGORITHMS) - before)}:
+                _ALGORITHMS.pop(name, None)
+                _BROKEN[name] = why
+            warnings.warn(f"{why}; none of its algorithms runs", stacklevel=2)
 
 
 def _origin(train: TrainFn) -> str:
@@ -260,6 +322,8 @@ def _origin(train: TrainFn) -> str:
 
 def get(name: str) -> Algorithm:
     _load_all()
+    if name in _BROKEN and name not in _ALGORITHMS:
+        raise RegistryError(f"algorithm {name!r} cannot run: its {_BROKEN[name]}")
     if name not in _ALGORITHMS:
         raise RegistryError(
             f"unknown algorithm {name!r} (registered: {', '.join(sorted(_ALGORITHMS))})"

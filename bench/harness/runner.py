@@ -14,7 +14,7 @@ from __future__ import annotations
 import itertools
 import os
 import warnings
-from collections.abc import Collection, Iterator
+from collections.abc import Collection, Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -41,14 +41,19 @@ class RunSummary:
     """Trials stopped at the time limit, each kept as a snapshot to resume from."""
     linked: int = 0
     """Of the skipped, trials another suite's folder had finished: linked, not rerun."""
+    set_aside: int = 0
+    """Records of these trials that another version of a plugin's code trained, moved out of
+    the folder's trials (`store.set_aside`): they are not these trials."""
 
 
-def link_finished(specs: list[TrialSpec], results_dir: Path, root: Path | None) -> list[TrialSpec]:
-    """Link into `results_dir` the trials of `specs` that a folder under `root` has finished
+def link_finished(
+    specs: list[TrialSpec], results_dir: Path, roots: Path | Sequence[Path] | None
+) -> list[TrialSpec]:
+    """Link into `results_dir` the trials of `specs` that a folder under `roots` has finished
     (the same trial, asked for by another suite: `store.link`); return the others."""
-    if root is None or not specs:
+    if roots is None or not specs:
         return specs
-    found = store.find(root, {s.trial_id for s in specs}, besides=results_dir)
+    found = store.find(roots, {s.trial_id for s in specs}, besides=results_dir)
     for spec in specs:
         if spec.trial_id in found:
             label = registry.shown_as(spec.algorithm, spec.label)
@@ -120,7 +125,7 @@ def run_suite(
     tensorboard: str | Path | None = None,
     first: Collection[str] = (),
     limit: TimeLimit | None = None,
-    priced_by: Path | None = None,
+    priced_by: Path | Sequence[Path] | None = None,
     snapshot_every: float | None = snapshots.EVERY_S,
 ) -> RunSummary:
     """Run every pending trial in parallel, writing each record as it finishes; with
@@ -134,7 +139,11 @@ def run_suite(
     (None: never) and resume from it after an interruption. Under a time `limit`, a trial starts
     if it is expected to finish in time or, with snapshots, if it can pause at the limit (see
     `_jobs`); at the limit every trial in flight that takes snapshots saves one and stops, and
-    the rest are left pending."""
+    the rest are left pending. Records of these trials that another version of a plugin's code
+    trained are moved aside first (`store.set_aside`), never reused."""
+    stale = store.trained_by_other_code(results_dir, specs)
+    if stale:
+        store.set_aside(results_dir, stale)
     records = list(store.scan(results_dir))
     have = {r.trial_id: store.status_of(r) for r in records}
     todo = pending(specs, have, retry_failed)
@@ -149,7 +158,7 @@ def run_suite(
         for trial_id in snapshot_plan.saved() & finished:  # a run killed as a record landed
             snapshot_plan.discard(trial_id)
     if not todo:
-        return RunSummary(0, 0, skipped, linked=linked)
+        return RunSummary(0, 0, skipped, linked=linked, set_aside=len(stale))
     others = [] if priced_by is None else store.scan_under(priced_by, besides=results_dir)
     costs = CostModel.of(itertools.chain(records, others))
     if snapshot_plan is not None:
@@ -223,4 +232,6 @@ def run_suite(
         if client is not None:
             client.close()
     left = len(todo) - done - failed - paused
-    return RunSummary(done, failed, skipped, left=left, paused=paused, linked=linked)
+    return RunSummary(
+        done, failed, skipped, left=left, paused=paused, linked=linked, set_aside=len(stale)
+    )

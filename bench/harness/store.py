@@ -22,7 +22,7 @@ import math
 import os
 import time
 import warnings
-from collections.abc import Collection, Iterator
+from collections.abc import Collection, Iterator, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -31,7 +31,7 @@ import pandas as pd
 
 from bench import atomic
 from bench.errors import BadInput
-from bench.harness import registry
+from bench.harness import policies, registry
 from bench.harness.types import CurvePoint, TrialResult, TrialSpec
 
 TRIALS = "trials"
@@ -113,6 +113,8 @@ def write(results_dir: str | Path, result: TrialResult) -> Path:
     del record["stored_in"]  # where the reader found it
     if not record["resumed_at"]:  # trials that ran in one go: records as they always were
         del record["resumed_at"]
+    if record["spec"]["code"] is None:  # a built-in's: its records as they always were
+        del record["spec"]["code"]
     text = json.dumps(_finite(record), allow_nan=False, indent=1)
     return atomic.write_text(record_path(results_dir, result.trial_id), text)
 
@@ -307,24 +309,73 @@ def find_result_dirs(root: str | Path) -> list[Path]:
 # ---------------------------------------------------------------- helpers
 
 
-def scan_under(root: str | Path, besides: str | Path | None = None) -> Iterator[TrialResult]:
-    """`scan` of every results folder under `root` (`find_result_dirs`), but `besides` (a
-    folder the caller has read already)."""
-    skip = None if besides is None else os.path.realpath(besides)
-    for results_dir in find_result_dirs(root):
-        if os.path.realpath(results_dir) != skip:
-            yield from scan(results_dir)
+def _roots(roots: str | Path | Sequence[str | Path]) -> list[Path]:
+    """Search roots as a list of existing folders, each real folder once."""
+    many = [roots] if isinstance(roots, str | Path) else list(roots)
+    real = {os.path.realpath(r): Path(r) for r in reversed(many) if Path(r).is_dir()}
+    return list(reversed(real.values()))
+
+
+def scan_under(
+    roots: str | Path | Sequence[str | Path], besides: str | Path | None = None
+) -> Iterator[TrialResult]:
+    """`scan` of every results folder under `roots` (`find_result_dirs`), each once, but
+    `besides` (a folder the caller has read already)."""
+    seen = set() if besides is None else {os.path.realpath(besides)}
+    for root in _roots(roots):
+        for results_dir in find_result_dirs(root):
+            real = os.path.realpath(results_dir)
+            if real not in seen:
+                seen.add(real)
+                yield from scan(results_dir)
+
+
+SET_ASIDE = "set-aside"
+"""Where a run moves the records of trials that another version of a plugin's code trained."""
+
+
+def trained_by_other_code(results_dir: str | Path, specs: Collection[TrialSpec]) -> list[Path]:
+    """Record files in `results_dir` of trials `specs` ask for, in everything but the code that
+    trained them (an earlier version of a plugin): they are not these trials, and are never
+    reused as them."""
+    wanted = {_setting_key(s): s.trial_id for s in specs}
+    found = []
+    for result in scan(results_dir):
+        trial_id = wanted.get(_setting_key(result.spec))
+        if trial_id is not None and trial_id != result.trial_id:
+            found.append(record_path(results_dir, result.trial_id))
+    return found
+
+
+def _setting_key(spec: TrialSpec) -> str:
+    return json.dumps(spec.setting(), sort_keys=True, separators=(",", ":"))
+
+
+def set_aside(results_dir: str | Path, records: Collection[Path]) -> Path:
+    """Move `records` of `results_dir` (and their policies) into its `SET_ASIDE` folder, file
+    by file, where no figure or run reads them; nothing is deleted. Returns that folder."""
+    folder = Path(results_dir) / SET_ASIDE
+    folder.mkdir(exist_ok=True)
+    for record in records:
+        policy = policies.path(results_dir, record.stem)
+        if policy.is_file():
+            os.replace(policy, folder / policy.name)
+        os.replace(record, folder / record.name)
+    return folder
 
 
 def find(
-    root: str | Path, ids: Collection[str], besides: str | Path | None = None
+    roots: str | Path | Sequence[str | Path],
+    ids: Collection[str],
+    besides: str | Path | None = None,
 ) -> dict[str, Path]:
-    """Where under `root` (but in `besides`) each of `ids` is recorded as finished (ok, with
+    """Where under `roots` (but in `besides`) each of `ids` is recorded as finished (ok, with
     finite returns): trial id -> its record's own file (a link followed). Reads only the files
-    named by those ids."""
+    named by those ids; the first root that has a trial is where it is found."""
     skip = None if besides is None else os.path.realpath(besides)
     found: dict[str, Path] = {}
-    for results_dir in find_result_dirs(root):
+    folders = [d for root in _roots(roots) for d in find_result_dirs(root)]
+    for results_dir in dict.fromkeys(folders):
         if os.path.realpath(results_dir) == skip:
             continue
         for trial_id in sorted(set(ids) - found.keys()):

@@ -44,12 +44,26 @@ class TrialSpec:
     """Side in pixels of the frames of a pixel or video-reward trial (None: PixelConfig's 64)."""
     curve_points: int = CURVE_POINTS
     """Learning-curve evaluations during training."""
+    code: str | None = None
+    """The identity of the code that trains it (`bench.harness.registry.code_identity`): a
+    plugin's source hash, so that a changed plugin's trials are new trials; None for the
+    built-ins."""
 
     def decisive(self) -> dict[str, Any]:
         """Every field but `suite` and `label`, which only say who asked for the trial and what
-        it is called there."""
+        it is called there; `code` only where it is set, so the built-ins' ids are those their
+        committed records have."""
         spec = asdict(self)
         del spec["suite"], spec["label"]
+        if spec["code"] is None:
+            del spec["code"]
+        return spec
+
+    def setting(self) -> dict[str, Any]:
+        """What decides the trial but its code: two specs alike here and unlike in `code` are
+        one trial run by two versions of a plugin."""
+        spec = self.decisive()
+        spec.pop("code", None)
         return spec
 
     def identity(self) -> str:

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from bench.harness import registry
 from bench.harness.suite import resolve
 from bench.harness.suite.types import AlgorithmEntry, EnvSettings, Suite, SuiteError
 from bench.harness.types import TrialSpec
@@ -38,6 +39,7 @@ def env_trials(suite: Suite, env: EnvSettings) -> list[TrialSpec]:
             observation=env.observation,
             frame_size=env.frame_size,
             curve_points=suite.curve_points,
+            code=registry.get(algo.name).code,
         )
 
     no_demos = [a for a in suite.algorithms if not a.uses_demos]
