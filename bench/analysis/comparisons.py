@@ -22,8 +22,9 @@ from bench.analysis.labels import Names, is_reference
 from bench.analysis.normalize import EXPERT, RANDOM, demo_free
 
 TARGET = "gaifo"
-"""The learner whose probability of improvement over the others a report gives: the
-benchmark's reference learner, a question the report asks rather than a role."""
+"""The learner whose probability of improvement over the others a report gives by default: the
+benchmark's reference learner, a question the report asks rather than a role. A report on
+one's own method names it instead (`bench report --focus NAME`)."""
 POOLED = "pooled"
 """env_id of per_env.csv's rows over every env (aggregates.csv's and improvement.csv's numbers)."""
 TAUS = 81
@@ -66,16 +67,18 @@ def competitors(df: pd.DataFrame, n_demos: int) -> list[str]:
     return labels.algorithm_order(set(learners.loc[here | demo_free(learners), "algorithm"]))
 
 
-def improvement_pairs(names: Collection[str], shown: Names) -> list[tuple[str, str]]:
-    """The (a, b) whose P(a > b) a report gives: GAIfO against every other learner and floor,
+def improvement_pairs(
+    names: Collection[str], shown: Names, focus: str = TARGET
+) -> list[tuple[str, str]]:
+    """The (a, b) whose P(a > b) a report gives: `focus` against every other learner and floor,
     then every other learner against the floor of its own family (did it learn from the
     demonstrations at all?). The ceilings are read as fractions (`oracle_fractions`), not
     rivals."""
     ordered = shown.in_order(n for n in names if shown[n].role != "ceiling")
-    pairs = [(TARGET, other) for other in ordered if other != TARGET] if TARGET in names else []
+    pairs = [(focus, other) for other in ordered if other != focus] if focus in names else []
     for a in shown.with_role(ordered, "learner"):
         floor = control_of(a, "floor", names, shown)
-        if a != TARGET and floor is not None:
+        if a != focus and floor is not None:
             pairs.append((a, floor))
     return pairs
 
@@ -94,6 +97,22 @@ def control_of(name: str, role: str, names: Collection[str], shown: Names) -> st
             return n
     plain = [n for n in mine if n == shown[n].method]
     return plain[0] if plain else None
+
+
+def between(df: pd.DataFrame, a: str, b: str) -> tuple[pd.DataFrame, pd.DataFrame]:
+    """Two algorithms of one normalized frame, as `stats.compare` takes two folders' trials:
+    `a`'s cells against `b`'s, env by env and count by count (b's rows then named as a's). A
+    demonstration-free side (a control) stands beside every count of the other."""
+    mine, theirs = df[df["algorithm"] == a], df[df["algorithm"] == b]
+
+    def at_counts(frame: pd.DataFrame, other: pd.DataFrame) -> pd.DataFrame:
+        counts = sorted(set(other["n_demos"]) - {0})
+        if frame.empty or set(frame["n_demos"]) != {0} or not counts:
+            return frame
+        return pd.concat([frame.assign(n_demos=n) for n in counts], ignore_index=True)
+
+    mine, theirs = at_counts(mine, theirs), at_counts(theirs, mine)
+    return mine.assign(setting=""), theirs.assign(algorithm=a, setting="")
 
 
 def oracle_fractions(scores: dict[str, np.ndarray], shown: Names, reps: int = 2000) -> pd.DataFrame:
@@ -159,7 +178,7 @@ def pooled(df: pd.DataFrame, n: int, names: list[str], left_out: list[str]) -> l
     return keep
 
 
-def count_statistics(df: pd.DataFrame, n: int, reps: int) -> CountStatistics:
+def count_statistics(df: pd.DataFrame, n: int, reps: int, focus: str = TARGET) -> CountStatistics:
     """Every learner's pooled aggregates, the probabilities of improvement
     (`improvement_pairs`) and the performance profile at `n` demonstrations."""
     left_out: list[str] = []
@@ -173,7 +192,7 @@ def count_statistics(df: pd.DataFrame, n: int, reps: int) -> CountStatistics:
         seeds=[scores[a].shape[0] for a in aggregate["algorithm"]],
         envs=[scores[a].shape[1] for a in aggregate["algorithm"]],
     )
-    pairs = improvement_pairs(scores, Names.of(df))
+    pairs = improvement_pairs(scores, Names.of(df), focus)
     improvement = stats.improvement_of_pairs(scores, pairs, reps=reps) if pairs else pd.DataFrame()
     everything = np.concatenate([s.ravel() for s in scores.values()])
     taus = np.linspace(min(0.0, everything.min()), max(1.0, everything.max()), TAUS)
@@ -181,7 +200,7 @@ def count_statistics(df: pd.DataFrame, n: int, reps: int) -> CountStatistics:
     return CountStatistics(scores, aggregate, improvement, profile, left_out)
 
 
-def per_env_statistics(df: pd.DataFrame, n: int, reps: int) -> pd.DataFrame:
+def per_env_statistics(df: pd.DataFrame, n: int, reps: int, focus: str = TARGET) -> pd.DataFrame:
     """Env by env at `n` demonstrations (PER_ENV_COLUMNS): each learner's IQM over every seed
     that env has, its probabilities of improvement on that env alone, and its IQM as a
     fraction of its oracle's, with its worst seed's (statistic "iqm", "p_improvement",
@@ -198,7 +217,7 @@ def per_env_statistics(df: pd.DataFrame, n: int, reps: int) -> pd.DataFrame:
             seeds = len(scores[r.algorithm])
             rows.append((n, env_id, "iqm", r.algorithm, "", seeds, r.estimate, r.lo, r.hi))
         shown = Names.of(here)
-        pairs = improvement_pairs(scores, shown)
+        pairs = improvement_pairs(scores, shown, focus)
         for r in stats.improvement_of_pairs(scores, pairs, reps=reps).itertuples():
             seeds = min(len(scores[r.algorithm]), len(scores[r.other]))
             rows.append(
@@ -226,9 +245,11 @@ def pooled_rows(n: int, aggregate: pd.DataFrame, improvement: pd.DataFrame) -> p
     return pd.DataFrame(rows, columns=PER_ENV_COLUMNS)
 
 
-def state_match_statistics(df: pd.DataFrame, n: int, reps: int) -> pd.DataFrame:
+def state_match_statistics(
+    df: pd.DataFrame, n: int, reps: int, focus: str = TARGET
+) -> pd.DataFrame:
     """How far each learner's (and the references') evaluation states lie from the expert's
-    at `n` demonstrations: IQM distance with its CI, and P(GAIfO closer) (STATE_MATCH_COLUMNS;
+    at `n` demonstrations: IQM distance with its CI, and P(`focus` closer) (STATE_MATCH_COLUMNS;
     empty where the records hold no distance: pixels, or records from before)."""
     measured = df.dropna(subset=["state_distance"])
     shown = Names.of(measured)
@@ -246,9 +267,9 @@ def state_match_statistics(df: pd.DataFrame, n: int, reps: int) -> pd.DataFrame:
     aggregate = stats.aggregate_scores(distances, reps=reps)
     iqm = aggregate[aggregate["metric"] == "iqm"].set_index("algorithm")
     closer = pd.DataFrame()
-    if TARGET in distances and len(distances) > 1:  # closer is better: compare negated distances
+    if focus in distances and len(distances) > 1:  # closer is better: compare negated distances
         negated = {a: -d for a, d in distances.items()}
-        closer = stats.probability_of_improvement(negated, TARGET, reps=reps).set_index("other")
+        closer = stats.probability_of_improvement(negated, focus, reps=reps).set_index("other")
     rows = []
     for a in shown.in_order(list(distances)):
         d = iqm.loc[a]

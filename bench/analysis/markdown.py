@@ -158,7 +158,8 @@ def _is_a(shown: Sequence[str]) -> str:
     return "is a" if len(shown) == 1 else "are each a"
 
 
-def how_to_read(learners: Sequence[str], reps: int, names: Names) -> str:
+def how_to_read(learners: Sequence[str], reps: int, names: Names, focus: str = TARGET) -> str:
+    subject = names.label(focus)
     items = [
         "**Normalized score**: per env, 0 is the mean return of the random policy and 1 that of "
         "the expert that recorded the demonstrations (raw returns in the last section), so envs "
@@ -170,7 +171,7 @@ def how_to_read(learners: Sequence[str], reps: int, names: Names) -> str:
         "**[lo, hi]**: a 95% confidence interval, from a stratified bootstrap over seeds "
         f"({reps} resamples). Few seeds make it wide; with one seed it shrinks to a point, "
         "which means unknown, not certain.",
-        "**Probability of improvement** P(GAIfO > X): the chance that a run of GAIfO scores "
+        f"**Probability of improvement** P({subject} > X): the chance that a run of {subject} scores "
         "higher than a run of X on the same env, averaged over envs. 0.5 is a tie; an interval "
         "that excludes 0.5 is a difference the seeds support.",
         "**Performance profile**: for each score τ, the fraction of runs scoring above τ. A "
@@ -194,6 +195,13 @@ def how_to_read(learners: Sequence[str], reps: int, names: Names) -> str:
             "its own optimizer's ceiling (per env) says how much of what the optimizer reaches "
             "at this budget the imitation reaches, and its worst seed's fraction whether every "
             "seed got there; the gap from the ceiling to the expert is the optimizer's."
+        )
+    if orphans := [n for n in names.with_role(learners, "learner") if names[n].family is None]:
+        items.append(
+            f"{_bold_names(orphans, names)} {'has' if len(orphans) == 1 else 'have'} no optimizer"
+            " family (`register(..., family=...)`, or a config that extends an optimizer's): no"
+            " floor or ceiling to read it against, so it has no P(> floor) and no fraction of an"
+            " oracle here."
         )
     if names.starred(learners):
         items.append(
@@ -240,8 +248,8 @@ def at_a_glance(aggregates: pd.DataFrame, improvement: pd.DataFrame, names: Name
     return "\n".join(lines)
 
 
-def env_by_count(per_env: pd.DataFrame, names: Names) -> str:
-    """Each learner's IQM on each env at every demo count, in one table, and GAIfO's
+def env_by_count(per_env: pd.DataFrame, names: Names, focus: str = TARGET) -> str:
+    """Each learner's IQM on each env at every demo count, in one table, and `focus`'s
     probabilities of improvement over the others: a row per learner (or pair), a column per env,
     each cell its values at the counts in order ("-" where it has none): the numbers behind
     Figure 2's bars, read across counts."""
@@ -249,7 +257,7 @@ def env_by_count(per_env: pd.DataFrame, names: Names) -> str:
     iqm = per_env[per_env["statistic"] == "iqm"]
     if iqm.empty:
         return ""
-    pairs = per_env[(per_env["statistic"] == "p_improvement") & (per_env["algorithm"] == TARGET)]
+    pairs = per_env[(per_env["statistic"] == "p_improvement") & (per_env["algorithm"] == focus)]
     counts = sorted(iqm["n_demos"].unique())
     envs = labels.env_order(iqm["env_id"].unique())
 
@@ -268,7 +276,7 @@ def env_by_count(per_env: pd.DataFrame, names: Names) -> str:
         for a in names.in_order(iqm["algorithm"])
     ]
     rows += [
-        [pair_label(TARGET, other, names), *cells(pairs[pairs["other"] == other])]
+        [pair_label(focus, other, names), *cells(pairs[pairs["other"] == other])]
         for other in names.in_order(pairs["other"])
     ]
     shown = " / ".join(str(n) for n in counts)
@@ -278,7 +286,8 @@ def env_by_count(per_env: pd.DataFrame, names: Names) -> str:
             "## Per env, across demonstration counts",
             "",
             "Each env's IQM over its seeds at each demonstration count, then the probability that"
-            " a GAIfO run beats a run of each other learner there, as the per-env sections below"
+            f" a {names.label(focus)} run beats a run of each other learner there, as the per-env"
+            " sections below"
             ' give them with their CIs; "-" where a count has no runs yet.',
             "",
             table(pd.DataFrame(rows, columns=header)),

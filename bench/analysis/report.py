@@ -62,9 +62,9 @@ class WrittenReport(NamedTuple):
 
 
 def write_reports(
-    root: str | Path, out_dir: str | Path | None = None, reps: int = 2000
+    root: str | Path, out_dir: str | Path | None = None, reps: int = 2000, focus: str = TARGET
 ) -> list[WrittenReport]:
-    """One report per suite folder under `root` (store.find_result_dirs).
+    """One report per suite folder under `root` (store.find_result_dirs), each on `focus`.
 
     With several suites, `out_dir` (if given) gets one subfolder per suite, named
     as the suite's folder is under `root`.
@@ -72,14 +72,18 @@ def write_reports(
     root = Path(root)
     dirs = store.suite_dirs(root)
     if out_dir is None:
-        return [write_report(d, reps=reps) for d in dirs]
+        return [write_report(d, reps=reps, focus=focus) for d in dirs]
     if len(dirs) == 1:
-        return [write_report(dirs[0], Path(out_dir), reps)]
-    return [write_report(d, Path(out_dir) / d.relative_to(root), reps) for d in dirs]
+        return [write_report(dirs[0], Path(out_dir), reps, focus)]
+    return [write_report(d, Path(out_dir) / d.relative_to(root), reps, focus) for d in dirs]
 
 
-def write_report(results_dir: Path, out_dir: Path | None = None, reps: int = 2000) -> WrittenReport:
-    """Write `out_dir`/report.md (default `results_dir`/report) with its figures and CSVs.
+def write_report(
+    results_dir: Path, out_dir: Path | None = None, reps: int = 2000, focus: str = TARGET
+) -> WrittenReport:
+    """Write `out_dir`/report.md (default `results_dir`/report) with its figures and CSVs;
+    `focus` (an algorithm's name as the records show it) is the learner every comparison is
+    about: its probability of improvement over each other learner and over its floor.
 
     `reps` is the number of bootstrap resamples behind every interval.
     Raises FileNotFoundError when `results_dir` holds no readable trial record,
@@ -116,13 +120,14 @@ def write_report(results_dir: Path, out_dir: Path | None = None, reps: int = 200
     except ValueError as e:  # several curves per seed and step: records of more than one run
         curves = str(e)
     per_count = [
-        _demo_section(df, curves, raw_curves, reach, n, out_dir, reps) for n in demo_counts(df)
+        _demo_section(df, curves, raw_curves, reach, n, out_dir, reps, focus)
+        for n in demo_counts(df)
     ]
     by_env = [
-        _per_env_section(df, n, aggregate, improvement, reps, names)
+        _per_env_section(df, n, aggregate, improvement, reps, names, focus)
         for n, (_, aggregate, improvement) in zip(demo_counts(df), per_count, strict=True)
     ]
-    matched = [_state_match_section(df, n, reps, names) for n in demo_counts(df)]
+    matched = [_state_match_section(df, n, reps, names, focus) for n in demo_counts(df)]
     aggregates = _concat([aggregate for _, aggregate, _ in per_count], AGGREGATE_COLUMNS)
     improvements = _concat([improvement for _, _, improvement in per_count], IMPROVEMENT_COLUMNS)
     aggregates.to_csv(out_dir / AGGREGATES_CSV, index=False)
@@ -135,10 +140,10 @@ def write_report(results_dir: Path, out_dir: Path | None = None, reps: int = 200
 
     sections = [
         markdown.header(df, results_dir),
-        markdown.how_to_read(learners, reps, names),
+        markdown.how_to_read(learners, reps, names, focus),
         markdown.at_a_glance(aggregates, improvements, names),
         figure_section,
-        markdown.env_by_count(per_env, names),
+        markdown.env_by_count(per_env, names, focus),
         *(text for text, _, _ in per_count),
         *(text for text, _ in by_env),
         *(text for text, _ in matched),
@@ -185,13 +190,14 @@ def _demo_section(
     n: int,
     out_dir: Path,
     reps: int,
+    focus: str = TARGET,
 ) -> tuple[str, pd.DataFrame, pd.DataFrame]:
     """Markdown for one demo count, and its aggregate and improvement rows."""
     title = markdown.demos_title(n)
     parts = [f"## {title}"]
     competing = comparisons.competitors(df, n)
     names = Names.of(df)
-    counted = comparisons.count_statistics(df, n, reps)
+    counted = comparisons.count_statistics(df, n, reps, focus)
     if counted.failure is not None:
         parts.append(f"No aggregate statistics: {counted.failure}.")
     if counted.left_out:
@@ -210,13 +216,14 @@ def _demo_section(
             markdown.aggregate_table(aggregate, names),
         ]
         parts.append("### Probability of improvement")
-        if TARGET not in counted.scores:
-            parts.append(f"{names.label(TARGET)} has no scores with {title.lower()}.")
+        if focus not in counted.scores:
+            parts.append(f"{names.label(focus)} has no scores with {title.lower()}.")
         if len(improvement):
             parts.append(markdown.improvement_table(improvement, names))
         else:
             parts.append(
-                "Nothing to compare: no second learner to set against GAIfO or the control."
+                f"Nothing to compare: no second learner to set against {names.label(focus)}"
+                " or the control."
             )
         name = f"profile_{n}demos"
         plot.save(
@@ -251,6 +258,7 @@ def _per_env_section(
     pooled_improvement: pd.DataFrame,
     reps: int,
     names: Names,
+    focus: str = TARGET,
 ) -> tuple[str, pd.DataFrame]:
     """Markdown with each learner's IQM and the probabilities of improvement env by env at `n`
     demos, beside their pooled values; and its rows (PER_ENV_COLUMNS).
@@ -258,7 +266,7 @@ def _per_env_section(
     Each env keeps every seed it has, where pooling keeps only the seeds every env has, so a
     domain still running is read from all of its finished seeds.
     """
-    by_env = comparisons.per_env_statistics(df, n, reps)
+    by_env = comparisons.per_env_statistics(df, n, reps, focus)
     if by_env.empty:
         return "", pd.DataFrame(columns=PER_ENV_COLUMNS)
     envs = list(dict.fromkeys(by_env["env_id"]))
@@ -294,14 +302,14 @@ def _per_env_section(
 
 
 def _state_match_section(
-    df: pd.DataFrame, n: int, reps: int, names: Names
+    df: pd.DataFrame, n: int, reps: int, names: Names, focus: str = TARGET
 ) -> tuple[str, pd.DataFrame]:
     """Markdown on how far each learner's states lie from the expert's at `n` demos, and its
     rows; nothing where the records hold no distance (pixels, or records from before)."""
-    rows = comparisons.state_match_statistics(df, n, reps)
+    rows = comparisons.state_match_statistics(df, n, reps, focus)
     if rows.empty:
         return "", pd.DataFrame()
-    target = names.label(TARGET)
+    target = names.label(focus)
     header = ["algorithm", "runs", "IQM distance [95% CI]", f"P({target} closer) [95% CI]"]
     cells = [
         [

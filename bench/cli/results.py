@@ -44,8 +44,14 @@ def _plot(args: argparse.Namespace) -> int:
 
 def _report(args: argparse.Namespace) -> int:
     from bench.analysis import report
+    from bench.analysis.comparisons import TARGET
+    from bench.harness import store
 
-    for written in report.write_reports(args.results_dir, args.out, args.reps):
+    focus = TARGET
+    if args.focus is not None:
+        for d in store.suite_dirs(args.results_dir):
+            focus = _algorithm_named(args.focus, store.load(d), d)
+    for written in report.write_reports(args.results_dir, args.out, args.reps, focus):
         tables = report.tables(written.aggregates, written.improvements, written.names)
         print(f"## {written.path}\n\n{tables}")
         print(f"wrote {written.path} (figures and aggregates.csv beside it)\n")
@@ -53,8 +59,20 @@ def _report(args: argparse.Namespace) -> int:
 
 
 def _compare(args: argparse.Namespace) -> int:
-    from bench.analysis import labels, markdown, normalize, stats
+    from bench.analysis import comparisons, labels, markdown, normalize, stats
+    from bench.errors import BadInput
 
+    if (args.reference is None) == (args.between is None):
+        raise BadInput("compare: name a reference folder, or two algorithms with --between A B")
+    if args.between is not None:
+        trials = _one_suite(args.run)
+        a, b = (_algorithm_named(name, trials, args.run) for name in args.between)
+        df = normalize.normalize(trials)
+        run_df, ref_df = comparisons.between(df, a, b)
+        names = labels.Names.of(df)
+        comparison = stats.compare(run_df, ref_df, reps=args.reps)
+        print(markdown.compare_table(comparison, names.label(a), names.label(b), names))
+        return 0
     run, ref = (_one_suite(args.run), _one_suite(args.reference))
     run_df, ref_df = normalize.normalized_alike(run, ref)
     comparison = stats.compare(run_df, ref_df, reps=args.reps)
@@ -62,6 +80,20 @@ def _compare(args: argparse.Namespace) -> int:
     unlike = stats.unlike(run_df, ref_df)
     print(markdown.compare_table(comparison, str(args.run), str(args.reference), names, unlike))
     return 0
+
+
+def _algorithm_named(name: str, trials: pd.DataFrame, folder: str | Path) -> str:
+    """The algorithm `name` stands for in `trials` (its name as the records show it, or its
+    label), or BadInput naming the ones there."""
+    from bench.errors import BadInput
+
+    shown = dict(zip(trials["algorithm"], trials["label"], strict=True))
+    for algorithm, label in shown.items():
+        if name in (algorithm, label):
+            return algorithm
+    raise BadInput(
+        f"{folder}: no algorithm {name!r} in its records (there: {', '.join(sorted(shown))})"
+    )
 
 
 def _one_suite(folder: str) -> pd.DataFrame:
@@ -104,17 +136,33 @@ def add(sub: argparse._SubParsersAction) -> None:
         type=folder,
         help="report folder (default <suite dir>/report; one per suite)",
     )
+    rep.add_argument(
+        "--focus",
+        metavar="NAME",
+        help="the algorithm every comparison is about: P(NAME > each other learner), its"
+        " floor and oracle (default gaifo); e.g. your own method's name",
+    )
     _reps(rep)
     rep.set_defaults(func=_report)
 
     cmp = sub.add_parser(
         "compare",
-        help="compare two results folders' IQMs per env, algorithm and demo count",
-        description="Per env, algorithm and demo count in both folders: each folder's IQM over"
-        " seeds with a 95%% CI, and whether they differ (the CI of the difference excludes 0).",
+        help="compare two results folders' IQMs per env, algorithm and demo count, or two"
+        " algorithms of one folder",
+        description="Per env, algorithm and demo count in both folders (or per env and demo"
+        " count, two algorithms of one folder with --between): each side's IQM over seeds with"
+        " a 95%% CI, and whether they differ (the CI of the difference excludes 0).",
     )
     cmp.add_argument("run", help="a suite's results folder, e.g. runs/quick")
-    cmp.add_argument("reference", help="the folder to compare against, e.g. results/quick")
+    cmp.add_argument(
+        "reference", nargs="?", help="the folder to compare against, e.g. results/quick"
+    )
+    cmp.add_argument(
+        "--between",
+        nargs=2,
+        metavar=("A", "B"),
+        help="compare algorithm A with algorithm B within RUN instead of two folders",
+    )
     _reps(cmp)
     cmp.set_defaults(func=_compare)
 
