@@ -139,3 +139,49 @@ def test_linked_committed_trials_are_never_written(tmp_path, cli):
     assert out.returncode == 0, out.stderr
     assert "0 trials done" in out.stdout and "by other suites (linked)" in out.stdout
     assert {p: p.read_bytes() for p in committed} == committed
+
+
+PAGE = ROOT / "docs" / "guide" / "your-method.md"
+
+
+@pytest.mark.slow
+def test_the_evaluate_page_runs_as_written(tmp_path):
+    """docs/guide/your-method.md, steps 1-4 as written (its ```bash blocks, in order, and its
+    suite), in a fresh folder outside results/: only the plugin's trials run, and the report on
+    it sets it against every baseline and its floor. One substitution: `pip install -e` goes to
+    a folder of the test's own (`--target`), so the test leaves no package installed."""
+    import os
+    import re
+    import subprocess
+    import sys
+
+    text = PAGE.read_text()
+    suite = re.search(r"```yaml\n# (\S+)\n(.*?)```", text, re.S)
+    (tmp_path / suite.group(1)).write_text(suite.group(2))
+    site = tmp_path / "site"
+    install = f"{sys.executable} -m pip install -q --no-deps --no-build-isolation --target {site}"
+    bin_dir = Path(sys.executable).parent
+    env = {
+        **os.environ,
+        "PYTHONPATH": str(site),
+        "PATH": f"{bin_dir}{os.pathsep}{os.environ['PATH']}",
+    }
+    outputs = []
+    for block in re.findall(r"```bash\n(.*?)```", text, re.S):
+        for command in block.strip().splitlines():
+            command = command.replace("pip install -e", install)
+            out = subprocess.run(
+                command, shell=True, cwd=tmp_path, env=env, capture_output=True, text=True
+            )
+            assert out.returncode == 0, f"{command}: {out.stderr}"
+            outputs.append(out.stdout)
+    printed = "\n".join(outputs)
+    assert "my-ifo" in printed  # bench list
+    assert "2 of 82 trials pending" in printed
+    assert "80 more finished by other runs, linked, not run again: 80 from" in printed
+    assert "2 trials done, 0 failed, 80 already finished" in printed
+    report = (tmp_path / "runs" / "pendulum" / "report" / "report.md").read_text()
+    for other in ("GAIfO", "GAIL*", "BCO", "TCN", "Survival"):
+        assert f"| my-ifo > {other} " in report, other
+    assert "my-ifo / Oracle" in report  # its fraction of its own ceiling
+    assert "| InvertedPendulum | my-ifo      | 5       |" in printed  # compare --between

@@ -99,7 +99,7 @@ def _suite(raw: Any, path: Path) -> Suite:
         raise checks.Invalid(
             "name", f"expected a folder name (letters, digits, . _ -), got {show(name)}"
         )
-    tuned = _settings(path.parent / file.settings) if file.settings else {}
+    tuned = _settings(settings_path(path, file.settings)) if file.settings else {}
     envs = tuple(
         _env(env_id, settings, tuned.get(env_id)) for env_id, settings in file.envs.items()
     )
@@ -158,6 +158,19 @@ def _suite(raw: Any, path: Path) -> Suite:
     trials = expand(suite)
     checks.check_budgets(trials)
     return dataclasses.replace(suite, trials=tuple(trials))
+
+
+SHIPPED_SETTINGS = paths.REPO_ROOT / "suites"
+"""Where the shipped settings files live (suites/settings/*.yaml): a suite anywhere names
+them as the shipped suites do, `settings: settings/mujoco.yaml`."""
+
+
+def settings_path(suite: Path, named: str) -> Path:
+    """The settings file a suite at `suite` names: beside the suite, else the shipped one of
+    that name."""
+    beside = suite.parent / named
+    shipped = SHIPPED_SETTINGS / named
+    return shipped if not beside.exists() and shipped.is_file() else beside
 
 
 def _settings(path: Path) -> dict[str, schema.SettingsEntry]:
