@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import os
+import subprocess
 import sys
 from collections import Counter
 from pathlib import Path
@@ -17,6 +18,15 @@ def _run(args: argparse.Namespace) -> int:
     from bench.harness.suite import load_suite, select
 
     suite = load_suite(args.suite)
+    if suite.kernels == "portable" and not args.estimate:
+        from bench.harness import kernels
+
+        if kernels.active() != "portable":
+            # The libraries read their kernel switches once, when they first compute: the run
+            # starts again in a process that has them from its start (so do its workers).
+            env = {**os.environ, **kernels.pins("portable")}
+            command = [sys.executable, "-m", "bench.cli", *args.argv]
+            return subprocess.run(command, env=env, check=False).returncode
     specs = select(
         list(suite.trials), args.suite, env=args.env, algorithm=args.algorithm, demos=args.demos
     )

@@ -26,7 +26,7 @@ import numpy as np
 
 from bench import atomic
 from bench.errors import BadInput
-from bench.harness import envs, paths
+from bench.harness import envs, kernels, paths
 from bench.harness.experts import load_expert
 from bench.harness.pixels import PixelConfig, camera, newest_frames, stack_episode
 from bench.imitation.data import ActionDemos, Demos
@@ -122,7 +122,9 @@ def pool_path(env_id: str, pixels: PixelConfig | None = None) -> Path:
         view = camera(env_id)
         cam = "" if view is None else f"-cam{view.key()}"
         video = f"-frames{pixels.size}{'g' if pixels.grayscale else 'rgb'}{cam}"
-    return paths.CACHE_DIR / "demos" / f"{env_id}-{digest}-{FORMAT}{video}.npz"
+    # Recorded with portable kernels, a pool is another pool (the expert's rollouts are floats)
+    pinned = "-portable" if kernels.active() == "portable" else ""
+    return paths.CACHE_DIR / "demos" / f"{env_id}-{digest}-{FORMAT}{video}{pinned}.npz"
 
 
 def ensure_pool(env_id: str, pixels: PixelConfig | None = None) -> Path:

@@ -113,8 +113,9 @@ def write(results_dir: str | Path, result: TrialResult) -> Path:
     del record["stored_in"]  # where the reader found it
     if not record["resumed_at"]:  # trials that ran in one go: records as they always were
         del record["resumed_at"]
-    if record["spec"]["code"] is None:  # a built-in's: its records as they always were
-        del record["spec"]["code"]
+    for optional in ("code", "kernels"):  # unset: records as they always were
+        if record["spec"][optional] is None:
+            del record["spec"][optional]
     text = json.dumps(_finite(record), allow_nan=False, indent=1)
     return atomic.write_text(record_path(results_dir, result.trial_id), text)
 

@@ -21,7 +21,7 @@ import gymnasium as gym
 import numpy as np
 import torch
 
-from bench.harness import demos, envs, experts, minari_io, policies, registry, state_match
+from bench.harness import demos, envs, experts, kernels, minari_io, policies, registry, state_match
 from bench.harness.isolate import Died, die_with_parent, isolated
 from bench.harness.pixels import PixelConfig, VideoBeside
 from bench.harness.snapshots import SnapshotPlan, TrialPaused
@@ -190,6 +190,13 @@ def versions(env_id: str) -> dict[str, str]:
     return {pkg: version(pkg) for pkg in packages if _installed(pkg)}
 
 
+def computed_with(spec: TrialSpec) -> dict[str, str]:
+    """`versions`, and for a portable trial the kernels it computed with (the native ones are
+    the CPU's, as every record before kernels could be pinned)."""
+    pinned = {"kernels": kernels.describe()} if spec.kernels else {}
+    return versions(spec.env_id) | pinned
+
+
 def _installed(package: str) -> bool:
     try:
         version(package)
@@ -306,6 +313,7 @@ def run_trial(
     given = reference = distance = saved = role = family = label = None
     status, returns = "failed", []
     try:
+        kernels.require(spec.kernels)
         logger.events = open_events(tensorboard, spec)
         torch.manual_seed(spec.seed)
         trial = plan(spec)
@@ -352,7 +360,7 @@ def run_trial(
         curve=logger.curve,
         env_steps=tally.steps,
         wall_time=round(time.time() - start if resumed is None else resumed.spent(), 3),
-        versions=versions(spec.env_id),
+        versions=computed_with(spec),
         traceback=tb,
         logs=logger.logs,
         inputs=given,

@@ -44,6 +44,9 @@ class TrialSpec:
     """Side in pixels of the frames of a pixel or video-reward trial (None: PixelConfig's 64)."""
     curve_points: int = CURVE_POINTS
     """Learning-curve evaluations during training."""
+    kernels: str | None = None
+    """"portable" where its floats must be the same on any x86-64 CPU
+    (`bench.harness.kernels`); None: the CPU's own kernels, as every committed record's."""
     code: str | None = None
     """The identity of the code that trains it (`bench.harness.registry.code_identity`): a
     plugin's source hash, so that a changed plugin's trials are new trials; None for the
@@ -55,8 +58,9 @@ class TrialSpec:
         committed records have."""
         spec = asdict(self)
         del spec["suite"], spec["label"]
-        if spec["code"] is None:
-            del spec["code"]
+        for optional in ("code", "kernels"):  # only where set: older ids stay what they were
+            if spec[optional] is None:
+                del spec[optional]
         return spec
 
     def setting(self) -> dict[str, Any]:

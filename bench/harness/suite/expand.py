@@ -40,6 +40,7 @@ def env_trials(suite: Suite, env: EnvSettings) -> list[TrialSpec]:
             frame_size=env.frame_size,
             curve_points=suite.curve_points,
             code=registry.get(algo.name).code,
+            kernels=None if suite.kernels == "native" else suite.kernels,
         )
 
     no_demos = [a for a in suite.algorithms if not a.uses_demos]

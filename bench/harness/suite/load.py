@@ -153,6 +153,7 @@ def _suite(raw: Any, path: Path) -> Suite:
         file.eval_episodes,
         runner,
         file.curve_points,
+        file.kernels,
     )
     checks.check_size(suite)
     trials = expand(suite)

@@ -135,6 +135,9 @@ class SuiteFile(BaseModel):
     eval_episodes: Count = 10
     curve_points: Count = CURVE_POINTS
     runner: RunnerFile = RunnerFile()
+    kernels: Literal["native", "portable"] = "native"
+    """The CPU kernels every trial computes with (`bench.harness.kernels`): "portable" for
+    numbers any x86-64 CPU reproduces, "native" for each CPU's fastest."""
     settings: Annotated[str, Field(min_length=1)] | None = None
     """A YAML file (relative to the suite's folder) of tuned settings per env, {env id:
     SettingsEntry}: each env of the suite it lists gets its `trpo` and `hyperparams` under the

@@ -80,6 +80,8 @@ class Suite:
     eval_episodes: int = 10
     runner: RunnerSettings = RunnerSettings()
     curve_points: int = CURVE_POINTS
+    kernels: str = "native"
+    """The CPU kernels its trials compute with (`bench.harness.kernels`)."""
     trials: tuple[TrialSpec, ...] = field(default=(), hash=False)
     """Every trial of the suite, each setting resolved, in a fixed order: made once, at load
     (`bench.harness.suite.expand`)."""
