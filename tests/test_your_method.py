@@ -70,7 +70,7 @@ def test_a_changed_plugin_runs_again_and_its_old_records_are_set_aside(
     out = cli("run", str(suite), "--results", str(results), "--estimate", env=env)
     assert out.returncode == 0, out.stderr
     assert "2 of 6 trials pending" in out.stdout
-    assert "2 records there were trained by another version" in out.stdout
+    assert "2 records there were made with other settings or another version" in out.stdout
     out = cli("run", str(suite), "--results", str(results), "--jobs", "1", env=env)
     assert out.returncode == 0, out.stderr
     assert f"moved to {results}/set-aside/" in out.stdout
@@ -80,6 +80,14 @@ def test_a_changed_plugin_runs_again_and_its_old_records_are_set_aside(
     assert aside <= first and not aside & now
     out = cli("plot", str(results), env=env)  # the folder is one setting again
     assert out.returncode == 0, out.stderr
+
+    # Other settings supersede a cell's records as other code does: 3 evaluation episodes
+    suite.write_text(suite.read_text().replace("eval_episodes: 2", "eval_episodes: 3"))
+    out = cli("run", str(suite), "--results", str(results), "--jobs", "1", env=env)
+    assert out.returncode == 0, out.stderr
+    assert "6 records of these cells were made with other settings" in out.stdout
+    assert len(list((results / "set-aside").glob("*.json"))) == 8
+    assert cli("plot", str(results), env=env).returncode == 0
 
 
 BROKEN_AFTER_REGISTERING = FIXED.format(gain=0.1) + "\nraise ImportError('no such helper')\n"

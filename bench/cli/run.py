@@ -78,8 +78,9 @@ def _run(args: argparse.Namespace) -> int:
         )
     if summary.set_aside:
         print(
-            f"{summary.set_aside} records of these trials were trained by another version of"
-            f" their plugin's code: moved to {results}/{store.SET_ASIDE}/ (kept, never reused)"
+            f"{summary.set_aside} records of these cells were made with other settings or another"
+            f" version of their plugin's code: moved to {results}/{store.SET_ASIDE}/ (kept, never"
+            " reused)"
         )
     linked = f", {summary.linked} of them by other suites (linked)" if summary.linked else ""
     print(
@@ -110,7 +111,7 @@ def _estimate(specs: list, results: Path, jobs: int, reuse: list[Path]) -> int:
     from bench.harness.runner import pending
     from bench.harness.snapshots import SnapshotPlan
 
-    stale = store.trained_by_other_code(results, specs)
+    stale = store.superseded(results, specs)
     finished = {r.trial_id: store.status_of(r) for r in store.scan(results)}
     todo = pending(specs, finished, retry_failed=False)
     elsewhere = store.find(reuse, {s.trial_id for s in todo}, besides=results)
@@ -120,8 +121,9 @@ def _estimate(specs: list, results: Path, jobs: int, reuse: list[Path]) -> int:
     print(f"{len(todo)} of {len(specs)} trials pending -> {results}/")
     if stale:
         print(
-            f"{len(stale)} records there were trained by another version of their plugin's"
-            f" code: a run moves them to {results}/{store.SET_ASIDE}/ and runs them again"
+            f"{len(stale)} records there were made with other settings or another version of"
+            f" their plugin's code: a run moves them to {results}/{store.SET_ASIDE}/ and runs"
+            " their cells again"
         )
     if elsewhere:
         where = Counter(str(_shown_path(p.parent.parent)) for p in elsewhere.values())

@@ -1,10 +1,10 @@
 """`bench new-algorithm NAME DIR`: an installable plugin package to start one's own method from.
 
 What it writes learns as written: TRPO (the imitators' own, with their settings) on a
-state-only reward, how close each step's (s, s') lies to a demonstrated one, handed to TRPO
-through `bench.imitation.rewards.on_trpo` and judged at the absorbing state like any other
-input, so that ending an episode is worth the least a step can be and the reward never
-teaches the agent to fall. Replace the reward with your own; everything else is the harness's.
+state-only reward, how closely each step tracks the demonstrated states at the same time of
+the episode. Every step alive earns more than an ended episode (0), so the reward never
+teaches the agent to fall. Replace the reward with your own; everything else is the
+harness's.
 """
 
 from __future__ import annotations
@@ -17,13 +17,16 @@ from bench.errors import BadInput
 
 NAME_PATTERN = re.compile(r"^[a-z][a-z0-9-]{0,39}$")
 
-MODULE = '''"""{name}: TRPO on how close each step's (s, s') lies to a demonstrated one.
+MODULE = '''"""{name}: TRPO on how closely each step tracks the demonstrations at the same time.
 
-The reward is 1 / (1 + d / bandwidth), d the distance from the step's (s, s') to the nearest
-demonstrated pair, in units of the demonstrations' spread: 1 on the expert's path, less
-further from it, and 0 at the absorbing state an episode ends in. Every step alive is worth more
-than ending the episode, so the agent is never taught to fall (a reward negative at every step
-would teach it just that). Replace `reward` with your own idea; the harness does the rest.
+The reward of a step that reaches state s' at time t of its episode is 1 / (1 + d / bandwidth),
+d the distance from s' to the nearest state the demonstrations reached within `window` steps of
+t (in units of the demonstrations' spread): 1 on the expert's path at the expert's pace, less
+away from it. Matched in time, standing still is far from an expert that has long since left:
+a reward of nearest states alone pays standing, since every demonstration starts by standing.
+Every step alive earns more than an ended episode (0, what TRPO values after a termination),
+so the agent is never taught to fall; a reward negative at every step would teach just that.
+Replace `reward` with your own idea; the harness does the rest.
 """
 
 from __future__ import annotations
@@ -36,8 +39,7 @@ import torch
 from bench.harness.learners import ImitationTRPOConfig, one_batch, trpo_on_reward
 from bench.harness.registry import Logger, Policy, Task, register
 from bench.imitation.data import Demos
-from bench.imitation.rewards import on_trpo
-from bench.rl.absorbing import Transitions
+from bench.rl.rollout import Batch
 
 
 @dataclass
@@ -47,8 +49,8 @@ class {config}(ImitationTRPOConfig):
 
     bandwidth: float = 1.0
     """How fast the reward falls with the distance to the demonstrations (in spreads)."""
-    max_pairs: int = 10_000
-    """Demonstrated (s, s') pairs kept to compare against (drawn evenly where there are more)."""
+    window: int = 10
+    """Steps either side of a step's time whose demonstrated states it is matched against."""
 
 
 @register(
@@ -62,28 +64,33 @@ class {config}(ImitationTRPOConfig):
 def train(
     task: Task, demos: Demos, budget: int, seed: int, logger: Logger, config: {config}
 ) -> Policy:
-    """TRPO on the closeness of each step's (s, s') to the demonstrated ones."""
-    obs, next_obs = demos.transitions()  # (N, O) each: every demonstrated step
-    pairs = np.concatenate([obs, next_obs], axis=1)
-    keep = np.linspace(0, len(pairs) - 1, min(len(pairs), config.max_pairs)).astype(int)
-    pairs = torch.as_tensor(pairs[keep], dtype=torch.float32)
-    centre, spread = pairs.mean(0), pairs.std(0)
+    """TRPO on tracking the demonstrated states at the same time of the episode."""
+    states = np.concatenate(demos.observations)
+    centre = torch.as_tensor(states.mean(0))
+    spread = torch.as_tensor(states.std(0))
     # A dimension the expert holds still (a balanced pole) would make every other state look
     # infinitely far: no dimension counts for more than ten times the average one.
     spread = torch.clamp(spread, min=0.1 * float(spread.mean()) + 1e-8)
-    expert = (pairs - centre) / spread
-    scale = config.bandwidth * np.sqrt(pairs.shape[1])
+    # (episodes, longest, O), each episode padded with its last state; `reached` masks the pad
+    longest = max(len(o) for o in demos.observations)
+    track = torch.stack([torch.as_tensor(np.pad(o, ((0, longest - len(o)), (0, 0)), "edge"))
+                         for o in demos.observations])
+    track = (track - centre) / spread
+    reached = torch.stack([torch.arange(longest) < len(o) for o in demos.observations])
+    offsets = torch.arange(-config.window, config.window + 1)
+    scale = config.bandwidth * np.sqrt(track.shape[-1])
 
-    def reward(x: Transitions) -> torch.Tensor:
-        seen = (torch.cat([x.obs, x.next_obs], dim=1).float() - centre) / spread
-        distance = torch.cdist(seen, expert).min(dim=1).values
-        # 1 on the expert's path, falling slowly with the distance and never to 0, so that a
-        # step alive anywhere still beats the end of the episode (0) the absorbing state gets
-        close = 1.0 / (1.0 + distance / scale)
-        return torch.where(x.obs_absorbing | x.next_absorbing, 0.0, close)
+    def reward(batch: Batch) -> np.ndarray:  # (T, E) steps -> (T, E) rewards
+        s_next = (torch.as_tensor(batch.flat("next_obs")) - centre) / spread  # (N, O)
+        t = torch.as_tensor(batch.flat("timesteps")) + 1  # s' is the state at time t + 1
+        at = (t[:, None] + offsets).clamp(0, longest - 1)  # (N, 2w + 1) times matched against
+        near = track[:, at]  # (episodes, N, 2w + 1, O)
+        d = (near - s_next[None, :, None]).norm(dim=-1)
+        d = torch.where(reached[:, at], d, torch.inf).amin(dim=(0, 2))  # (N,)
+        close = 1.0 / (1.0 + d / scale)
+        return close.reshape(batch.rewards.shape).numpy()
 
-    shaped = on_trpo(reward, task.action_low, task.action_high, config.gamma)
-    return trpo_on_reward(task, budget, seed, logger, config, shaped)
+    return trpo_on_reward(task, budget, seed, logger, config, reward)
 '''
 
 PYPROJECT = """[build-system]

@@ -42,8 +42,8 @@ class RunSummary:
     linked: int = 0
     """Of the skipped, trials another suite's folder had finished: linked, not rerun."""
     set_aside: int = 0
-    """Records of these trials that another version of a plugin's code trained, moved out of
-    the folder's trials (`store.set_aside`): they are not these trials."""
+    """Records of these trials' cells made with other settings or another version of a
+    plugin's code, moved out of the folder's trials (`store.superseded`)."""
 
 
 def link_finished(
@@ -139,9 +139,9 @@ def run_suite(
     (None: never) and resume from it after an interruption. Under a time `limit`, a trial starts
     if it is expected to finish in time or, with snapshots, if it can pause at the limit (see
     `_jobs`); at the limit every trial in flight that takes snapshots saves one and stops, and
-    the rest are left pending. Records of these trials that another version of a plugin's code
-    trained are moved aside first (`store.set_aside`), never reused."""
-    stale = store.trained_by_other_code(results_dir, specs)
+    the rest are left pending. Records of these trials' cells made with other settings or
+    another version of a plugin's code are moved aside first (`store.superseded`)."""
+    stale = store.superseded(results_dir, specs)
     if stale:
         store.set_aside(results_dir, stale)
     records = list(store.scan(results_dir))

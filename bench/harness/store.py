@@ -332,24 +332,25 @@ def scan_under(
 
 
 SET_ASIDE = "set-aside"
-"""Where a run moves the records of trials that another version of a plugin's code trained."""
+"""Where a run moves the records its suite no longer asks for (`superseded`)."""
 
 
-def trained_by_other_code(results_dir: str | Path, specs: Collection[TrialSpec]) -> list[Path]:
-    """Record files in `results_dir` of trials `specs` ask for, in everything but the code that
-    trained them (an earlier version of a plugin): they are not these trials, and are never
-    reused as them."""
-    wanted = {_setting_key(s): s.trial_id for s in specs}
+def superseded(results_dir: str | Path, specs: Collection[TrialSpec]) -> list[Path]:
+    """Record files in `results_dir` of the cells `specs` ask for (env, algorithm as shown,
+    demonstration count, seed) that are not those trials: made with other settings, or by
+    another version of a plugin's code. They are never reused as these trials, and left in the
+    folder they would be averaged in with them."""
+    wanted = {_cell(s): s.trial_id for s in specs}
     found = []
     for result in scan(results_dir):
-        trial_id = wanted.get(_setting_key(result.spec))
+        trial_id = wanted.get(_cell(result.spec))
         if trial_id is not None and trial_id != result.trial_id:
             found.append(record_path(results_dir, result.trial_id))
     return found
 
 
-def _setting_key(spec: TrialSpec) -> str:
-    return json.dumps(spec.setting(), sort_keys=True, separators=(",", ":"))
+def _cell(spec: TrialSpec) -> tuple:
+    return (spec.env_id, spec.shown, spec.n_demos, spec.seed, spec.dataset, spec.observation)
 
 
 def set_aside(results_dir: str | Path, records: Collection[Path]) -> Path:

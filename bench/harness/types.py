@@ -63,13 +63,6 @@ class TrialSpec:
                 del spec[optional]
         return spec
 
-    def setting(self) -> dict[str, Any]:
-        """What decides the trial but its code: two specs alike here and unlike in `code` are
-        one trial run by two versions of a plugin."""
-        spec = self.decisive()
-        spec.pop("code", None)
-        return spec
-
     def identity(self) -> str:
         """What decides the trial's outcome (`decisive`), as canonical JSON."""
         return _canonical(self.decisive())
