@@ -22,3 +22,11 @@ def on_files(files: Files, config) -> Files:
                 uri = f"records/{folder.name}/{path.relative_to(folder).as_posix()}"
                 files.append(File.generated(config, uri, abs_src_path=str(path)))
     return files
+
+
+def on_page_markdown(markdown: str, page, config, files) -> str:
+    """A page links a committed figure by its path in the repository (`../results/<suite>/...`
+    from docs/index.md), which renders on the repository's own page as plain markdown; in the
+    site the same file is served under records/, so the link is pointed there."""
+    depth = page.file.src_uri.count("/")
+    return markdown.replace("../" * (depth + 1) + "results/", "../" * depth + "records/")
