@@ -193,3 +193,19 @@ def test_the_evaluate_page_runs_as_written(tmp_path):
         assert f"| my-ifo > {other} " in report, other
     assert "my-ifo / Oracle" in report  # its fraction of its own ceiling
     assert "| InvertedPendulum | my-ifo      | 5       |" in printed  # compare --between
+
+
+def test_a_report_says_which_learner_has_no_floor_to_be_read_against():
+    from bench.analysis import markdown
+    from bench.analysis.labels import Names, Shown
+
+    names = Names(
+        {
+            "gaifo": Shown("GAIfO", "learner", "trpo", "gaifo"),
+            "own-loop": Shown("own-loop", "learner", None, "own-loop"),
+            "survival": Shown("Survival", "floor", "trpo", "survival"),
+        }
+    )
+    text = markdown.how_to_read(list(names), 100, names, focus="own-loop")
+    assert "P(own-loop > X)" in text
+    assert "**own-loop** has no optimizer family" in text and "**GAIfO** has" not in text
