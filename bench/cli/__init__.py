@@ -1,6 +1,7 @@
 """`bench`: run suites, plot and report results, train and list experts.
 
-One module per group of commands (`run`, `results`, `experts`, `video`, `scaffold`), each adding its
+One module per group of commands (`run`, `results`, `experts`, `video`, `verify`,
+`scaffold`), each adding its
 subcommands to the parser; argument types and the one-line parser are in `args`."""
 
 from __future__ import annotations
@@ -14,7 +15,7 @@ import threading
 import warnings
 from collections.abc import Callable
 
-from bench.cli import experts, results, run, scaffold, video
+from bench.cli import experts, results, run, scaffold, verify, video
 from bench.cli.args import OneLineParser
 from bench.errors import BadInput
 
@@ -27,7 +28,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
 
-    for command in (run, results, experts, video, scaffold):
+    for command in (run, results, experts, video, verify, scaffold):
         command.add(sub)
     return parser
 

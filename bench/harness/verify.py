@@ -1,0 +1,109 @@
+"""Does a committed record reproduce? Rerun its spec and compare, record by record.
+
+A whole trial costs what it cost; its first updates cost seconds and say as much. A trial
+that trains is rerun for its first `steps` env steps, and every series it logs once per
+update (losses, KL, the reward's mean: all but timings) is compared with the record's, value
+for value: two runs that agree on every value of their first updates computed the same floats,
+and two that part, part there (training amplifies the last bit; they do not meet again). A
+record without such a series (the references, which only evaluate) or whose budget is no more
+than `steps` is rerun whole and its returns, curve and logs are compared. Nothing is written.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import random
+from collections import defaultdict
+from collections.abc import Iterable
+from dataclasses import dataclass
+
+from bench.harness import kernels
+from bench.harness.trial import plan, run_trial
+from bench.harness.types import TrialResult
+
+PREFIX_STEPS = 16_384
+"""Env steps a verification trains a record's trial for: four TRPO updates of 4,096 steps."""
+
+
+@dataclass(frozen=True)
+class Verdict:
+    record: TrialResult
+    identical: bool
+    how: str
+    """What was compared ("first 4 updates", "whole trial"), and where it parted if it did."""
+
+
+def _series(result: TrialResult) -> dict[str, list[float]]:
+    """The record's logged series but timings (which no two runs share)."""
+    return {k: v for k, v in result.logs.items() if not k.endswith("_s")}
+
+
+def verify(record: TrialResult, steps: int = PREFIX_STEPS) -> Verdict:
+    """Rerun `record`'s trial (its first `steps` env steps where it trains for more and logs
+    per update) and say whether it computes what the record holds."""
+    logged = _series(record)
+    whole = not logged or record.spec.budget <= steps
+    spec = record.spec if whole else dataclasses.replace(record.spec, budget=steps)
+    rerun = run_trial(spec, plan(spec).inputs())
+    if rerun.status != "ok":
+        last = (rerun.traceback or "").strip().splitlines()[-1:] or ["?"]
+        return Verdict(record, False, f"the rerun failed: {last[0]}")
+    if whole:
+        parts = [
+            ("returns", record.returns, rerun.returns),
+            ("curve", record.curve, rerun.curve),
+            *((k, v, _series(rerun).get(k)) for k, v in logged.items()),
+        ]
+        parted = [name for name, a, b in parts if a != b]
+        how = "whole trial" + (f": {', '.join(parted)} differ" if parted else "")
+        return Verdict(record, not parted, how)
+    again = _series(rerun)
+    first: tuple[int, str] | None = None  # (index, what) of the earliest value that differs
+    for key, values in logged.items():
+        theirs = again.get(key, [])
+        if not theirs:
+            return Verdict(record, False, f"the rerun logs no {key}")
+        part = next(
+            (i for i, (a, b) in enumerate(zip(values, theirs, strict=False)) if a != b), None
+        )
+        if part is not None and (first is None or part < first[0]):
+            first = (part, f"{key} {theirs[part]:.6g} against {values[part]:.6g}")
+    updates = len(again.get("env_steps", []))
+    if first is not None:
+        return Verdict(record, False, f"parts at update {first[0] + 1} of {updates}: {first[1]}")
+    return Verdict(record, True, f"first {updates} updates")
+
+
+def sample(records: Iterable[TrialResult], n: int, seed: int = 0) -> list[TrialResult]:
+    """`n` ok records spread over envs and algorithms: one of each (env, algorithm) in turn,
+    drawn at random within it (seeded), until `n`."""
+    cells: dict[tuple, list[TrialResult]] = defaultdict(list)
+    for r in records:
+        if r.status == "ok":
+            cells[(r.spec.env_id, r.spec.shown)].append(r)
+    rng = random.Random(seed)
+    for rows in cells.values():
+        rng.shuffle(rows)
+    chosen: list[TrialResult] = []
+    while len(chosen) < n and any(cells.values()):
+        for key in sorted(cells):
+            if cells[key] and len(chosen) < n:
+                chosen.append(cells[key].pop())
+    return chosen
+
+
+def where() -> str:
+    """What this machine computes with, as a verification says it: its CPU and kernels."""
+    import platform
+    from pathlib import Path
+
+    cpu = platform.machine()
+    info = Path("/proc/cpuinfo")
+    if info.is_file():
+        names = [
+            line.split(":", 1)[1].strip()
+            for line in info.read_text().splitlines()
+            if line.startswith("model name")
+        ]
+        cpu = names[0] if names else cpu
+    return f"{cpu}, kernels {kernels.describe()}"
