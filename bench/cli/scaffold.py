@@ -1,10 +1,10 @@
 """`bench new-algorithm NAME DIR`: an installable plugin package to start one's own method from.
 
 What it writes learns as written: TRPO (the imitators' own, with their settings) on a
-state-only reward, how closely each step tracks the demonstrated states at the same time of
-the episode. Every step alive earns more than an ended episode (0), so the reward never
-teaches the agent to fall. Replace the reward with your own; everything else is the
-harness's.
+state-only reward learned as it goes, a judge of (s, s') transitions that tells the
+demonstrated ones from the policy's and sees the absorbing state an ended episode leads into,
+so the reward never teaches the agent to fall. Replace the judge's features or loss with your
+own idea; everything else is the harness's.
 """
 
 from __future__ import annotations
@@ -17,16 +17,15 @@ from bench.errors import BadInput
 
 NAME_PATTERN = re.compile(r"^[a-z][a-z0-9-]{0,39}$")
 
-MODULE = '''"""{name}: TRPO on how closely each step tracks the demonstrations at the same time.
+MODULE = '''"""{name}: TRPO on a reward learned from state-only demonstrations.
 
-The reward of a step that reaches state s' at time t of its episode is 1 / (1 + d / bandwidth),
-d the distance from s' to the nearest state the demonstrations reached within `window` steps of
-t (in units of the demonstrations' spread): 1 on the expert's path at the expert's pace, less
-away from it. Matched in time, standing still is far from an expert that has long since left:
-a reward of nearest states alone pays standing, since every demonstration starts by standing.
-Every step alive earns more than an ended episode (0, what TRPO values after a termination),
-so the agent is never taught to fall; a reward negative at every step would teach just that.
-Replace `reward` with your own idea; the harness does the rest.
+The reward is a judge's: a classifier of transitions (s, s') that tells the demonstrated ones
+from the policy's, trained a few steps on each new batch, and each step's reward is
+-log(1 - D(s, s')), more the more the step looks demonstrated. Where an episode ends, the judge
+sees the absorbing state it leads into (`bench.rl.absorbing`) like any other input and learns
+that the expert never goes there, so an ended episode earns about 0 for ever while every step
+alive earns more: the reward never teaches the agent to fall (a reward negative at every step
+would teach just that). Replace `features` or the judge's loss with your own idea.
 """
 
 from __future__ import annotations
@@ -35,22 +34,87 @@ from dataclasses import dataclass
 
 import numpy as np
 import torch
+import torch.nn.functional as F
 
 from bench.harness.learners import ImitationTRPOConfig, one_batch, trpo_on_reward
 from bench.harness.registry import Logger, Policy, Task, register
 from bench.imitation.data import Demos
-from bench.rl.rollout import Batch
+from bench.imitation.discriminator import expert_transitions
+from bench.imitation.rewards import batch_rewards, batch_transitions
+from bench.rl.absorbing import FLAG, Transitions
+from bench.rl.networks import mlp
+from bench.rl.resume import Stateful
+from bench.rl.rollout import Batch, Rewards
 
 
 @dataclass
 class {config}(ImitationTRPOConfig):
     """The imitators' TRPO settings (so the built-in controls are its floor and ceiling),
-    and the reward's own."""
+    and the judge's own."""
 
-    bandwidth: float = 1.0
-    """How fast the reward falls with the distance to the demonstrations (in spreads)."""
-    window: int = 10
-    """Steps either side of a step's time whose demonstrated states it is matched against."""
+    judge_hidden: tuple[int, ...] = (64, 64)
+    """Hidden layer sizes of the judge's network."""
+    judge_lr: float = 3e-4
+    """Adam learning rate of the judge."""
+    judge_steps: int = 5
+    """Judge minibatch steps per policy update."""
+    judge_minibatch: int = 256
+    """Transitions of each side per judge step."""
+
+
+def features(x: Transitions, centre: torch.Tensor, spread: torch.Tensor) -> torch.Tensor:
+    """What the judge sees of a transition: s and s', scaled by the demonstrations' statistics,
+    each with its absorbing flag (the absorbing state is all zeros and the flag)."""
+
+    def state(obs: torch.Tensor, absorbing: torch.Tensor) -> torch.Tensor:
+        flag = absorbing.float()[:, None]
+        return torch.cat([(obs.float() - centre) / spread * (1 - flag), FLAG * flag], dim=1)
+
+    return torch.cat([state(x.obs, x.obs_absorbing), state(x.next_obs, x.next_absorbing)], 1)
+
+
+class Judge(Stateful):
+    """The learned reward: TRPO calls it on each batch (it trains, then rewards). Its state is
+    saved with the learner's (`Stateful`), so a trial on it can pause and resume."""
+
+    def __init__(self, task: Task, demos: Demos, config: {config}, seed: int) -> None:
+        self.task, self.config = task, config
+        expert = expert_transitions(demos.observations, demos.terminated, None, True, config.gamma)
+        self.expert = expert.map(torch.as_tensor)
+        states = np.concatenate(demos.observations)
+        self.centre = torch.as_tensor(states.mean(0))
+        self.spread = torch.as_tensor(states.std(0) + 1e-3)
+        self.net = mlp([2 * (task.obs_dim + 1), *config.judge_hidden, 1])
+        self.optimizer = torch.optim.Adam(self.net.parameters(), lr=config.judge_lr)
+        self.rng = torch.Generator().manual_seed(seed)
+
+    def parts(self) -> dict:
+        return {{"net": self.net, "optimizer": self.optimizer, "rng": self.rng}}
+
+    def logit(self, x: Transitions) -> torch.Tensor:
+        return self.net(features(x, self.centre, self.spread)).squeeze(-1)
+
+    def draw(self, x: Transitions) -> Transitions:
+        """A minibatch, each row drawn as often as the steps it stands for (`weight`)."""
+        n = self.config.judge_minibatch
+        rows = torch.multinomial(x.weight.float(), n, replacement=True, generator=self.rng)
+        return x.map(lambda field: field[rows])
+
+    def __call__(self, batch: Batch) -> Rewards:
+        x, terminated = batch_transitions(batch, self.task.action_low, self.task.action_high,
+                                          self.config.gamma)
+        x = x.map(torch.as_tensor)
+        for _ in range(self.config.judge_steps):  # demonstrated: 1, the policy's: 0
+            policy, expert = self.logit(self.draw(x)), self.logit(self.draw(self.expert))
+            loss = F.binary_cross_entropy_with_logits(policy, torch.zeros_like(policy))
+            loss = loss + F.binary_cross_entropy_with_logits(expert, torch.ones_like(expert))
+            self.optimizer.zero_grad()
+            loss.backward()
+            self.optimizer.step()
+        with torch.no_grad():
+            reward = F.softplus(self.logit(x))  # -log(1 - D): above 0, more where it looks expert
+        logged = {{"judge_loss": loss.item()}}
+        return batch_rewards(reward.numpy(), batch, terminated, self.config.gamma, logged=logged)
 
 
 @register(
@@ -58,39 +122,15 @@ class {config}(ImitationTRPOConfig):
     config={config},
     inputs="states",  # state-only demonstrations: `Demos` has no actions at all
     min_budget=one_batch,
-    resumable=True,  # the reward is fixed, so a trial can pause and resume
+    resumable=True,  # its judge's state is saved with the learner's
     label="{label}",
 )
 def train(
     task: Task, demos: Demos, budget: int, seed: int, logger: Logger, config: {config}
 ) -> Policy:
-    """TRPO on tracking the demonstrated states at the same time of the episode."""
-    states = np.concatenate(demos.observations)
-    centre = torch.as_tensor(states.mean(0))
-    spread = torch.as_tensor(states.std(0))
-    # A dimension the expert holds still (a balanced pole) would make every other state look
-    # infinitely far: no dimension counts for more than ten times the average one.
-    spread = torch.clamp(spread, min=0.1 * float(spread.mean()) + 1e-8)
-    # (episodes, longest, O), each episode padded with its last state; `reached` masks the pad
-    longest = max(len(o) for o in demos.observations)
-    track = torch.stack([torch.as_tensor(np.pad(o, ((0, longest - len(o)), (0, 0)), "edge"))
-                         for o in demos.observations])
-    track = (track - centre) / spread
-    reached = torch.stack([torch.arange(longest) < len(o) for o in demos.observations])
-    offsets = torch.arange(-config.window, config.window + 1)
-    scale = config.bandwidth * np.sqrt(track.shape[-1])
-
-    def reward(batch: Batch) -> np.ndarray:  # (T, E) steps -> (T, E) rewards
-        s_next = (torch.as_tensor(batch.flat("next_obs")) - centre) / spread  # (N, O)
-        t = torch.as_tensor(batch.flat("timesteps")) + 1  # s' is the state at time t + 1
-        at = (t[:, None] + offsets).clamp(0, longest - 1)  # (N, 2w + 1) times matched against
-        near = track[:, at]  # (episodes, N, 2w + 1, O)
-        d = (near - s_next[None, :, None]).norm(dim=-1)
-        d = torch.where(reached[:, at], d, torch.inf).amin(dim=(0, 2))  # (N,)
-        close = 1.0 / (1.0 + d / scale)
-        return close.reshape(batch.rewards.shape).numpy()
-
-    return trpo_on_reward(task, budget, seed, logger, config, reward)
+    """TRPO on a judge's reward: how demonstrated each step's (s, s') looks."""
+    torch.manual_seed(seed)
+    return trpo_on_reward(task, budget, seed, logger, config, Judge(task, demos, config, seed))
 '''
 
 PYPROJECT = """[build-system]

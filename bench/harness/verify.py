@@ -1,7 +1,8 @@
 """Does a committed record reproduce? Rerun its spec and compare, record by record.
 
 A whole trial costs what it cost; its first updates cost seconds and say as much. A trial
-that trains is rerun for its first `steps` env steps, and every series it logs once per
+that trains is rerun for its first `steps` env steps (past its algorithm's least budget: BCO's
+pre-demonstration phase), and every series it logs once per
 update (losses, KL, the reward's mean: all but timings) is compared with the record's, value
 for value: two runs that agree on every value of their first updates computed the same floats,
 and two that part, part there (training amplifies the last bit; they do not meet again). A
@@ -17,7 +18,7 @@ from collections import defaultdict
 from collections.abc import Iterable
 from dataclasses import dataclass
 
-from bench.harness import kernels
+from bench.harness import kernels, registry
 from bench.harness.trial import plan, run_trial
 from bench.harness.types import TrialResult
 
@@ -42,6 +43,11 @@ def verify(record: TrialResult, steps: int = PREFIX_STEPS) -> Verdict:
     """Rerun `record`'s trial (its first `steps` env steps where it trains for more and logs
     per update) and say whether it computes what the record holds."""
     logged = _series(record)
+    algorithm = registry.get(record.spec.algorithm)
+    floor = 0
+    if algorithm.min_budget is not None:  # BCO's first phase takes its pre-demonstration steps
+        floor = algorithm.min_budget(algorithm.make_config(record.spec.hyperparams))
+    steps = steps if steps > floor else floor + steps
     whole = not logged or record.spec.budget <= steps
     spec = record.spec if whole else dataclasses.replace(record.spec, budget=steps)
     rerun = run_trial(spec, plan(spec).inputs())
@@ -57,7 +63,9 @@ def verify(record: TrialResult, steps: int = PREFIX_STEPS) -> Verdict:
         parted = [name for name, a, b in parts if a != b]
         how = "whole trial" + (f": {', '.join(parted)} differ" if parted else "")
         return Verdict(record, not parted, how)
-    again = _series(rerun)
+    # The last update of a shortened run may be cut by its budget (BCO's iterations are):
+    # compared are the ones before it.
+    again = {k: v[:-1] if len(v) > 1 else v for k, v in _series(rerun).items()}
     first: tuple[int, str] | None = None  # (index, what) of the earliest value that differs
     for key, values in logged.items():
         theirs = again.get(key, [])
