@@ -4,7 +4,7 @@ computes a trial alike.
 Why. A trial's numbers depend on more than its spec: MKL (torch's BLAS) and ATen pick their
 kernels by the CPU they run on, and the kernels of two CPUs sum in different orders. The
 difference is in the last bits of one matrix product, and training amplifies it: measured on
-the committed MuJoCo records (docs: design, "Reproducibility"), a HalfCheetah-v5 GAIfO trial
+the committed MuJoCo records (docs/design/reproducibility.md), a HalfCheetah-v5 GAIfO trial
 that reproduces to the bit on one Xeon parts from the record at its first update on another
 CPU, and the expert's own HalfCheetah episodes, which the demonstration pools are recorded
 from, differ by thousands in return, so every imitator there is handed other demonstrations.
