@@ -55,12 +55,38 @@ def folder(text: str) -> Path:
     return path
 
 
+def output_folder(text: str) -> Path:
+    """argparse type: `folder`, and none that holds (or lies in) the shipped experts."""
+    path = folder(text)
+    _not_shipped(path, text)
+    return path
+
+
+def existing_folder(text: str) -> Path:
+    """argparse type: a folder that exists (read, never written)."""
+    path = Path(text)
+    if not path.is_dir():
+        raise argparse.ArgumentTypeError(f"{text} is not a folder")
+    return path
+
+
+def _not_shipped(path: Path, text: str) -> None:
+    from bench.harness import paths
+
+    shipped = paths.inside_shipped(path)
+    if shipped is not None:
+        raise argparse.ArgumentTypeError(
+            f"{text} would write into {shipped}, which holds the shipped experts; name another"
+        )
+
+
 def out_file(text: str) -> Path:
     """argparse type: a file to write, whose folder this user can write (or create)."""
     path = Path(text)
     if path.is_dir():
         raise argparse.ArgumentTypeError(f"{text} is a folder, not a file")
     _writable(path.parent, text)
+    _not_shipped(path.parent, text)
     return path
 
 

@@ -7,7 +7,7 @@ import sys
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from bench.cli.args import at_least, folder, out_file
+from bench.cli.args import at_least, out_file, output_folder
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -18,6 +18,13 @@ def _plot(args: argparse.Namespace) -> int:
     from bench.harness import store
 
     dirs = store.suite_dirs(args.results_dir)
+    if args.out and len(dirs) > 1:
+        from bench.errors import BadInput
+
+        raise BadInput(
+            f"plot: --out names one figure, and {args.results_dir} holds {len(dirs)} suites'"
+            " records; name one suite's folder"
+        )
     for d in dirs:
         trials = store.load(d)
         if trials.empty:
@@ -133,7 +140,7 @@ def add(sub: argparse._SubParsersAction) -> None:
     rep.add_argument(
         "--out",
         metavar="DIR",
-        type=folder,
+        type=output_folder,
         help="report folder (default <suite dir>/report; one per suite)",
     )
     rep.add_argument(

@@ -9,7 +9,7 @@ import sys
 from collections import Counter
 from pathlib import Path
 
-from bench.cli.args import duration, folder, jobs_count
+from bench.cli.args import duration, existing_folder, folder, jobs_count, output_folder
 from bench.errors import BadInput
 from bench.harness import paths
 
@@ -206,7 +206,7 @@ def add(sub: argparse._SubParsersAction) -> None:
         "--reuse",
         action="append",
         metavar="DIR",
-        type=folder,
+        type=existing_folder,
         help="also link trials finished in results folders under DIR instead of running them"
         " (repeatable; the results folder's parent and the checkout's results/ always are)",
     )
@@ -247,7 +247,7 @@ def add(sub: argparse._SubParsersAction) -> None:
     run.add_argument(
         "--tensorboard",
         metavar="DIR",
-        type=folder,
+        type=output_folder,
         help="also write every trial's logged scalars there as TensorBoard events, live"
         " (tensorboard --logdir DIR)",
     )
