@@ -51,3 +51,37 @@ def test_an_empty_cache_variable_is_unset(tmp_path):
         [sys.executable, "-c", code], env=env, cwd=tmp_path, capture_output=True, text=True
     ).stdout.split()
     assert printed == [str(ROOT / ".cache"), str(ROOT / "results" / "experts")]
+
+
+@pytest.mark.parametrize(
+    ("state", "said"),
+    [
+        ({"kind": "x", "class": "this:Nothing"}, "no registered algorithm's package"),
+        ({"kind": "x", "class": "algorithms.gaifo:no_such"}, "which is no policy class"),
+        ({"kind": "x", "class": "algorithms.gaifo:train"}, "which is no policy class"),
+        ({"kind": "nothing"}, "unknown policy kind"),
+    ],
+)
+def test_a_policy_file_names_only_registered_code(state, said, tmp_path, capsys):
+    """A stranger's policy file is data: naming a module does not import it."""
+    import torch
+
+    from bench.harness import policies
+
+    file = tmp_path / "p.pt"
+    torch.save(state, file)
+    with pytest.raises(policies.PolicyError, match=said):
+        policies.load(file)
+    assert "Zen of Python" not in capsys.readouterr().out  # `this` was never imported
+    assert "this" not in sys.modules
+
+
+def test_a_pickle_where_a_policy_should_be_is_one_line(tmp_path):
+    import pickle
+
+    from bench.harness import policies
+
+    file = tmp_path / "p.pt"
+    file.write_bytes(pickle.dumps(print))  # weights_only refuses it
+    with pytest.raises(policies.PolicyError, match="not a policy file"):
+        policies.load(file)

@@ -20,6 +20,7 @@ from typing import Any
 import torch
 
 from bench import atomic
+from bench.errors import BadInput
 from bench.rl.networks import DeterministicPolicy
 from bench.rl.sac import DeterministicActor
 
@@ -56,13 +57,41 @@ def write(results_dir: str | Path, trial_id: str, data: bytes) -> Path:
     return atomic.write_bytes(path(results_dir, trial_id), data)
 
 
+class PolicyError(BadInput, ValueError):
+    """A policy file that cannot be loaded as one, or that names code it may not."""
+
+
 def load(file: str | Path) -> Any:
-    """The policy saved in `file`, ready to act: numpy observations in, actions out."""
-    state = torch.load(file, weights_only=True)
+    """The policy saved in `file`, ready to act: numpy observations in, actions out.
+
+    A file is data: what it may name to rebuild it is a closed set, the built-in kinds and the
+    classes of registered algorithms' own packages; anything else is refused in one line
+    before it is imported."""
+    try:
+        state = torch.load(file, weights_only=True)
+    except Exception as e:  # a malicious pickle (refused by weights_only), a torn file
+        raise PolicyError(f"{file}: not a policy file ({type(e).__name__})") from None
+    if not isinstance(state, dict):
+        raise PolicyError(f"{file}: not a policy file (no state dict)")
     if CLASS not in state:
+        if state.get("kind") not in KINDS:
+            raise PolicyError(f"{file}: unknown policy kind {str(state.get('kind'))[:40]!r}")
         return KINDS[state["kind"]].from_state(state)
-    module, _, name = state[CLASS].partition(":")
+    module, _, name = str(state[CLASS]).partition(":")
+    if module.split(".")[0] not in _registered_packages():
+        raise PolicyError(
+            f"{file}: names {module[:60]!r}, which is no registered algorithm's package"
+        )
     cls: Any = importlib.import_module(module)
     for part in name.split("."):
-        cls = getattr(cls, part)
+        cls = getattr(cls, part, None)
+    if not isinstance(cls, type) or not callable(getattr(cls, "from_state", None)):
+        raise PolicyError(f"{file}: names {state[CLASS][:60]!r}, which is no policy class")
     return cls.from_state(state)
+
+
+def _registered_packages() -> set[str]:
+    """The top-level packages that registered algorithms (their train functions) live in."""
+    from bench.harness import registry
+
+    return {a.train.__module__.split(".")[0] for a in registry.all_algorithms().values()}
