@@ -84,7 +84,8 @@ def verify(record: TrialResult, steps: int = PREFIX_STEPS) -> Verdict:
 
 def sample(records: Iterable[TrialResult], n: int, seed: int = 0) -> list[TrialResult]:
     """`n` ok records spread over envs and algorithms: one of each (env, algorithm) in turn,
-    drawn at random within it (seeded), until `n`."""
+    the cells in a random order (so a sample smaller than the cells still spans every env and
+    algorithm), drawn at random within each (seeded), until `n`."""
     cells: dict[tuple, list[TrialResult]] = defaultdict(list)
     for r in records:
         if r.status == "ok":
@@ -92,9 +93,11 @@ def sample(records: Iterable[TrialResult], n: int, seed: int = 0) -> list[TrialR
     rng = random.Random(seed)
     for rows in cells.values():
         rng.shuffle(rows)
+    order = sorted(cells)
+    rng.shuffle(order)
     chosen: list[TrialResult] = []
     while len(chosen) < n and any(cells.values()):
-        for key in sorted(cells):
+        for key in order:
             if cells[key] and len(chosen) < n:
                 chosen.append(cells[key].pop())
     return chosen
