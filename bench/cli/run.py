@@ -73,7 +73,8 @@ def _run(args: argparse.Namespace) -> int:
             tensorboard=args.tensorboard,
             first=suite.runner.first,
             limit=limit,
-            priced_by=reuse,
+            priced_by=results.parent,
+            linked_from=reuse,
             snapshot_every=args.snapshot_every,
         )
     if summary.set_aside:
@@ -103,9 +104,9 @@ def _run(args: argparse.Namespace) -> int:
 
 
 def _estimate(specs: list, results: Path, jobs: int, reuse: list[Path]) -> int:
-    """Print what the pending trials would cost, from every record under the `reuse` folders,
-    less what the snapshots of cut-off trials have behind them. Trials another suite's folder
-    there has finished are not pending: a run links them (said per folder)."""
+    """Print what the pending trials would cost, from every record under results/'s parent,
+    less what the snapshots of cut-off trials have behind them. Trials a folder under `reuse`
+    has finished are not pending: a run links them (said per folder)."""
     from bench.harness import store
     from bench.harness.costs import estimate
     from bench.harness.runner import pending
@@ -117,7 +118,7 @@ def _estimate(specs: list, results: Path, jobs: int, reuse: list[Path]) -> int:
     elsewhere = store.find(reuse, {s.trial_id for s in todo}, besides=results)
     todo = [s for s in todo if s.trial_id not in elsewhere]
     done_before = SnapshotPlan.of(results).done_before(todo)
-    rows = estimate(todo, store.scan_under(reuse), done_before)
+    rows = estimate(todo, store.scan_under(results.parent), done_before)
     print(f"{len(todo)} of {len(specs)} trials pending -> {results}/")
     if stale:
         print(

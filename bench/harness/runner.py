@@ -125,7 +125,8 @@ def run_suite(
     tensorboard: str | Path | None = None,
     first: Collection[str] = (),
     limit: TimeLimit | None = None,
-    priced_by: Path | Sequence[Path] | None = None,
+    priced_by: Path | None = None,
+    linked_from: Sequence[Path] | None = None,
     snapshot_every: float | None = snapshots.EVERY_S,
 ) -> RunSummary:
     """Run every pending trial in parallel, writing each record as it finishes; with
@@ -139,7 +140,9 @@ def run_suite(
     (None: never) and resume from it after an interruption. Under a time `limit`, a trial starts
     if it is expected to finish in time or, with snapshots, if it can pause at the limit (see
     `_jobs`); at the limit every trial in flight that takes snapshots saves one and stops, and
-    the rest are left pending. Records of these trials' cells made with other settings or
+    the rest are left pending. With `linked_from`, finished trials are linked from the folders
+    under those (the checkout's committed results, say) rather than `priced_by`'s. Records of
+    these trials' cells made with other settings or
     another version of a plugin's code are moved aside first (`store.superseded`)."""
     stale = store.superseded(results_dir, specs)
     if stale:
@@ -147,7 +150,7 @@ def run_suite(
     records = list(store.scan(results_dir))
     have = {r.trial_id: store.status_of(r) for r in records}
     todo = pending(specs, have, retry_failed)
-    unlinked = link_finished(todo, results_dir, priced_by)
+    unlinked = link_finished(todo, results_dir, priced_by if linked_from is None else linked_from)
     linked, todo = len(todo) - len(unlinked), unlinked
     skipped = len(specs) - len(todo)
     snapshot_plan = None
