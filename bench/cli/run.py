@@ -112,8 +112,9 @@ def _estimate(specs: list, results: Path, jobs: int, reuse: list[Path]) -> int:
     from bench.harness.runner import pending
     from bench.harness.snapshots import SnapshotPlan
 
-    stale = store.superseded(results, specs)
-    finished = {r.trial_id: store.status_of(r) for r in store.scan(results)}
+    records = list(store.scan(results))
+    stale = store.superseded(records, specs)
+    finished = {r.trial_id: store.status_of(r) for r in records if r.trial_id not in stale}
     todo = pending(specs, finished, retry_failed=False)
     elsewhere = store.find(reuse, {s.trial_id for s in todo}, besides=results)
     todo = [s for s in todo if s.trial_id not in elsewhere]

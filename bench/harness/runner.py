@@ -144,10 +144,11 @@ def run_suite(
     under those (the checkout's committed results, say) rather than `priced_by`'s. Records of
     these trials' cells made with other settings or
     another version of a plugin's code are moved aside first (`store.superseded`)."""
-    stale = store.superseded(results_dir, specs)
+    records = list(store.scan(results_dir))
+    stale = store.superseded(records, specs)
     if stale:
         store.set_aside(results_dir, stale)
-    records = list(store.scan(results_dir))
+        records = [r for r in records if r.trial_id not in stale]
     have = {r.trial_id: store.status_of(r) for r in records}
     todo = pending(specs, have, retry_failed)
     unlinked = link_finished(todo, results_dir, priced_by if linked_from is None else linked_from)

@@ -22,7 +22,7 @@ import math
 import os
 import time
 import warnings
-from collections.abc import Collection, Iterator, Sequence
+from collections.abc import Collection, Iterable, Iterator, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -32,7 +32,7 @@ import pandas as pd
 from bench import atomic
 from bench.errors import BadInput
 from bench.harness import policies, registry
-from bench.harness.types import CurvePoint, TrialResult, TrialSpec
+from bench.harness.types import OPTIONAL_FIELDS, CurvePoint, TrialResult, TrialSpec
 
 TRIALS = "trials"
 STALE_TMP_SECONDS = 600.0
@@ -113,7 +113,7 @@ def write(results_dir: str | Path, result: TrialResult) -> Path:
     del record["stored_in"]  # where the reader found it
     if not record["resumed_at"]:  # trials that ran in one go: records as they always were
         del record["resumed_at"]
-    for optional in ("code", "kernels"):  # unset: records as they always were
+    for optional in OPTIONAL_FIELDS:  # unset: records as they always were
         if record["spec"][optional] is None:
             del record["spec"][optional]
     text = json.dumps(_finite(record), allow_nan=False, indent=1)
@@ -335,33 +335,30 @@ SET_ASIDE = "set-aside"
 """Where a run moves the records its suite no longer asks for (`superseded`)."""
 
 
-def superseded(results_dir: str | Path, specs: Collection[TrialSpec]) -> list[Path]:
-    """Record files in `results_dir` of the cells `specs` ask for (env, algorithm as shown,
-    demonstration count, seed) that are not those trials: made with other settings, or by
-    another version of a plugin's code. They are never reused as these trials, and left in the
-    folder they would be averaged in with them."""
+def superseded(records: Iterable[TrialResult], specs: Collection[TrialSpec]) -> set[str]:
+    """The trial ids of `records` (one folder's, `scan`) in the cells `specs` ask for (env,
+    algorithm as shown, demonstration count, seed) that are not those trials: made with other
+    settings, or by another version of a plugin's code. They are never reused as these trials,
+    and left in the folder they would be averaged in with them."""
     wanted = {_cell(s): s.trial_id for s in specs}
-    found = []
-    for result in scan(results_dir):
-        trial_id = wanted.get(_cell(result.spec))
-        if trial_id is not None and trial_id != result.trial_id:
-            found.append(record_path(results_dir, result.trial_id))
-    return found
+    return {r.trial_id for r in records if wanted.get(_cell(r.spec), r.trial_id) != r.trial_id}
 
 
 def _cell(spec: TrialSpec) -> tuple:
     return (spec.env_id, spec.shown, spec.n_demos, spec.seed, spec.dataset, spec.observation)
 
 
-def set_aside(results_dir: str | Path, records: Collection[Path]) -> Path:
-    """Move `records` of `results_dir` (and their policies) into its `SET_ASIDE` folder, file
-    by file, where no figure or run reads them; nothing is deleted. Returns that folder."""
+def set_aside(results_dir: str | Path, trial_ids: Collection[str]) -> Path:
+    """Move the records `trial_ids` of `results_dir` (and their policies) into its `SET_ASIDE`
+    folder, file by file, where no figure or run reads them; nothing is deleted. Returns that
+    folder."""
     folder = Path(results_dir) / SET_ASIDE
     folder.mkdir(exist_ok=True)
-    for record in records:
-        policy = policies.path(results_dir, record.stem)
+    for trial_id in trial_ids:
+        policy = policies.path(results_dir, trial_id)
         if policy.is_file():
             os.replace(policy, folder / policy.name)
+        record = record_path(results_dir, trial_id)
         os.replace(record, folder / record.name)
     return folder
 

@@ -15,6 +15,11 @@ CURVE_POINTS = 10
 algorithm offers checkpoints)."""
 
 
+OPTIONAL_FIELDS = ("code", "kernels")
+"""Spec fields added after records were committed: left out of a trial's identity (and of its
+record) where unset, so the ids of the trials that do not set them stay what they were."""
+
+
 @dataclass(frozen=True)
 class TrialSpec:
     """Everything that determines one trial, and the suite that asked for it. Its id hashes
@@ -54,11 +59,10 @@ class TrialSpec:
 
     def decisive(self) -> dict[str, Any]:
         """Every field but `suite` and `label`, which only say who asked for the trial and what
-        it is called there; `code` only where it is set, so the built-ins' ids are those their
-        committed records have."""
+        it is called there; `OPTIONAL_FIELDS` only where they are set."""
         spec = asdict(self)
         del spec["suite"], spec["label"]
-        for optional in ("code", "kernels"):  # only where set: older ids stay what they were
+        for optional in OPTIONAL_FIELDS:
             if spec[optional] is None:
                 del spec[optional]
         return spec

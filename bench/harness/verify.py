@@ -55,10 +55,11 @@ def verify(record: TrialResult, steps: int = PREFIX_STEPS) -> Verdict:
         last = (rerun.traceback or "").strip().splitlines()[-1:] or ["?"]
         return Verdict(record, False, f"the rerun failed: {last[0]}")
     if whole:
+        again = _series(rerun)
         parts = [
             ("returns", record.returns, rerun.returns),
             ("curve", record.curve, rerun.curve),
-            *((k, v, _series(rerun).get(k)) for k, v in logged.items()),
+            *((k, v, again.get(k)) for k, v in logged.items()),
         ]
         parted = [name for name, a, b in parts if a != b]
         how = "whole trial" + (f": {', '.join(parted)} differ" if parted else "")
