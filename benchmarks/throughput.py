@@ -22,12 +22,14 @@ With --pixels, raw stepping renders every frame and the networks are convolution
 from __future__ import annotations
 
 import argparse
+import contextlib
 import time
+from collections.abc import Iterator
 
 import numpy as np
 import torch
 
-from bench.harness import envs, mujoco_speed
+from bench.harness import envs, mujoco_batch, mujoco_speed
 from bench.harness.pixels import PixelConfig
 from bench.rl.shared_trunk import make_trpo
 from bench.rl.trpo import TRPOConfig, train
@@ -46,6 +48,55 @@ def raw_steps_per_s(env_id: str, steps: int, pixels: PixelConfig | None = None) 
     elapsed = time.perf_counter() - start
     env.close()
     return steps / elapsed
+
+
+@contextlib.contextmanager
+def physics_clock() -> Iterator[list[float]]:
+    """Seconds spent in the simulator while inside, accumulated in the list's one element.
+    MuJoCo: what `MujocoEnv.do_simulation` runs (ctrl, `mj_step` x frame_skip,
+    `mj_rnePostConstraint`), whether a task steps alone or E at a time. PyBullet: the scene's
+    `stepSimulation` calls and the robot's state reads (`calc_state`, as
+    `bench.harness.bullet_speed` makes it)."""
+    import mujoco
+    from pybullet_envs_gymnasium.robot_locomotors import WalkerBase
+    from pybullet_envs_gymnasium.scene_abstract import Scene
+
+    spent = [0.0]
+
+    def timed(fn):
+        def run(*args, **kwargs):
+            start = time.perf_counter()
+            out = fn(*args, **kwargs)
+            spent[0] += time.perf_counter() - start
+            return out
+
+        return run
+
+    def simulate(task, action):  # mujoco_speed._simulate, its shape check left out
+        start = time.perf_counter()
+        task.data.ctrl[:] = action
+        mujoco.mj_step(task.model, task.data, nstep=task.frame_skip)
+        mujoco.mj_rnePostConstraint(task.model, task.data)
+        spent[0] += time.perf_counter() - start
+
+    def simulate_all(tasks, actions):
+        for task, action in zip(tasks, actions, strict=True):
+            simulate(task, action)
+
+    patched = [
+        (mujoco_speed, "_simulate", simulate),
+        (mujoco_batch, "_simulate", simulate_all),
+        (Scene, "global_step", timed(Scene.global_step)),
+        (WalkerBase, "calc_state", timed(WalkerBase.calc_state)),
+    ]
+    originals = [(owner, name, getattr(owner, name)) for owner, name, _ in patched]
+    try:
+        for owner, name, replacement in patched:
+            setattr(owner, name, replacement)
+        yield spent
+    finally:
+        for owner, name, original in originals:
+            setattr(owner, name, original)
 
 
 def batched_steps_per_s(env_id: str, steps: int, n_envs: int = 8) -> float:
@@ -87,33 +138,39 @@ def trpo_steps_per_s(env_id: str, steps: int, pixels: PixelConfig | None = None)
     return (n1 - n0) / (t1 - t0)
 
 
-def gaifo_steps_per_s(env_id: str, steps: int, pixels: PixelConfig | None = None) -> float:
-    """GAIfO from one demonstration, timed like `trpo_steps_per_s` (same TRPO settings)."""
+def gaifo_steps_per_s(
+    env_id: str, steps: int, pixels: PixelConfig | None = None
+) -> tuple[float, float]:
+    """GAIfO from one demonstration, timed like `trpo_steps_per_s` (same TRPO settings): its
+    steps per second, and the share of its time spent in the simulator (`physics_clock`), which
+    is its rate over the simulator's own on the same trajectories."""
     from algorithms import gaifo
     from algorithms.adversarial import AdversarialConfig
     from bench.harness import demos, paths
     from bench.harness.registry import Task
 
     if not paths.has_expert(env_id):
-        return float("nan")
+        return float("nan"), float("nan")
     obs_dim, act_dim, low, high = envs.spaces(env_id, pixels)
     demo = demos.load_demos(demos.ensure_pool(env_id, pixels), env_id, 1, 0, pixels)
     timings: list[tuple[int, float]] = []
     start = time.perf_counter()
 
-    class Clock:
-        def checkpoint(self, env_steps, policy):
-            timings.append((env_steps, time.perf_counter() - start))
-
-        def log(self, env_steps, **scalars):
-            pass
-
     task = Task(
         env_id, obs_dim, act_dim, low, high, lambda s: envs.make(env_id, s, pixels), pixels=pixels
     )
-    gaifo.train(task, demo, steps, 0, Clock(), AdversarialConfig())
-    (n0, t0), (n1, t1) = timings[0], timings[-1]
-    return (n1 - n0) / (t1 - t0)
+    with physics_clock() as physics:
+
+        class Clock:
+            def checkpoint(self, env_steps, policy):
+                timings.append((env_steps, time.perf_counter() - start, physics[0]))
+
+            def log(self, env_steps, **scalars):
+                pass
+
+        gaifo.train(task, demo, steps, 0, Clock(), AdversarialConfig())
+    (n0, t0, p0), (n1, t1, p1) = timings[0], timings[-1]
+    return (n1 - n0) / (t1 - t0), (p1 - p0) / (t1 - t0)
 
 
 def sac_steps_per_s(env_id: str, steps: int, hidden: tuple[int, ...], device: str = "cpu") -> float:
@@ -179,28 +236,36 @@ def main() -> None:
         from bench.harness import bullet_speed
 
         envs.make(pybullet[0], 0).close()  # registers the envs, and with them the patches
-    header = ("env", "raw (library)", "raw", "batched", "TRPO", "GAIfO", "trpo/raw", "gaifo/raw")
+    header = (
+        "env", "raw (library)", "raw", "envpool", "TRPO", "GAIfO 1-by-1", "GAIfO", "physics",
+        "gaifo/phys 1-by-1", "gaifo/physics",
+    )  # fmt: skip
     print("steps per second, one core" + (" (--library: no speed patches)" if args.library else ""))
-    print(f"{header[0]:32s}" + "".join(f"{h:>14s}" for h in header[1:]))
+    print(f"{header[0]:24s}" + "".join(f"{h:>14s}" for h in header[1:-2]), *header[-2:])
     for env_id in args.envs:
+        batched, one_by_one, one_by_one_share = float("nan"), float("nan"), float("nan")
         if envs.is_pybullet(env_id):
             bullet_speed.restore()
             library = raw_steps_per_s(env_id, args.steps, pixels)
             if not args.library:
                 bullet_speed.apply_again()
             raw = raw_steps_per_s(env_id, args.steps, pixels)
-            batched = float("nan")
         else:
             mujoco_speed.set_enabled(False)
             library = raw_steps_per_s(env_id, args.steps, pixels)
             mujoco_speed.set_enabled(not args.library)
             raw = raw_steps_per_s(env_id, args.steps, pixels)
             batched = batched_steps_per_s(env_id, args.steps) if pixels is None else float("nan")
+            if not args.library:
+                mujoco_batch.set_enabled(False)  # the collectors step their envs one at a time
+                one_by_one, one_by_one_share = gaifo_steps_per_s(env_id, args.steps, pixels)
+                mujoco_batch.set_enabled(True)
         trpo = trpo_steps_per_s(env_id, args.steps, pixels)
-        gaifo = gaifo_steps_per_s(env_id, args.steps, pixels)
+        gaifo, share = gaifo_steps_per_s(env_id, args.steps, pixels)
         print(
-            f"{env_id:32s}{library:14,.0f}{raw:14,.0f}{batched:14,.0f}{trpo:14,.0f}{gaifo:14,.0f}"
-            f"{trpo / raw:14.2f}{gaifo / raw:14.2f}",
+            f"{env_id:24s}{library:14,.0f}{raw:14,.0f}{batched:14,.0f}{trpo:14,.0f}"
+            f"{one_by_one:14,.0f}{gaifo:14,.0f}{gaifo / share:14,.0f}"
+            f"{one_by_one_share:18.2f}{share:14.2f}",
             flush=True,
         )
         for width in args.sac or []:

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import copy
 import math
+from collections.abc import Callable
 
 import numpy as np
 import torch
@@ -181,6 +182,34 @@ class GaussianPolicy(nn.Module):
     def forward(self, obs: torch.Tensor) -> torch.Tensor:
         """Mean action for raw (B, O) observations."""
         return self.mean_net(self.features(obs))
+
+    def frozen_mean(self) -> Callable[[torch.Tensor], torch.Tensor]:
+        """`forward` as it stands now, for many calls while nothing changes the policy (a
+        batch's collection): the normalizer's statistics converted once, the layers called
+        without nn.Module's dispatch. The same operations, so the same values to the bit; where
+        the policy is not the plain MLP on a RunningNorm (a subclass, frames), `forward`."""
+        layers = list(self.mean_net)
+        plain = (
+            type(self) is GaussianPolicy
+            and type(self.norm) is RunningNorm
+            and type(self.trunk) is nn.Identity
+            and all(type(m) in (nn.Linear, nn.Tanh) for m in layers)
+        )
+        if not plain:
+            return self.forward
+        norm = self.norm
+        mean, std = norm.mean.to(torch.float32), (norm.var + norm.eps).sqrt().to(torch.float32)
+        steps = [(m.weight, m.bias) if type(m) is nn.Linear else None for m in layers]
+
+        def mean_action(obs: torch.Tensor) -> torch.Tensor:
+            if obs.dtype != torch.float32:
+                return self.forward(obs)
+            x = ((obs - mean) / std).clamp(-norm.clip, norm.clip)
+            for step in steps:
+                x = torch.tanh(x) if step is None else nn.functional.linear(x, *step)
+            return x
+
+        return mean_action
 
     def head_parameters(self) -> list[nn.Parameter]:
         """The parameters after the trunk (log std and the mean's MLP), in `parameters()` order:

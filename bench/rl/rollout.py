@@ -7,7 +7,7 @@ Episodes carry over between batches: an env is reset only when its episode ends.
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -91,6 +91,21 @@ RewardFn = Callable[[Batch], "np.ndarray | Rewards"]
 timestep); or `Rewards`, to value terminations or to log diagnostics."""
 
 
+StepTogether = Callable[
+    [list[gym.Env], np.ndarray], tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]
+]
+"""Steps E envs of one task at once, as each one's own `step` would: (E, A) actions -> (E, O)
+observations, (E,) rewards, (E,) terminated, (E,) truncated. An env offers it as its
+`step_together` attribute (`bench.harness.mujoco_batch` gives it to the MuJoCo locomotion
+tasks); collectors use it where every env they step offers the same one."""
+
+
+def step_together(envs: list[gym.Env]) -> StepTogether | None:
+    """The batched step all of `envs` share, or None (step them one at a time)."""
+    steps = {getattr(env, "step_together", None) for env in envs}
+    return steps.pop() if len(steps) == 1 else None
+
+
 class VecCollector:
     """Holds E live envs and collects `Batch`es from them, one batched policy call per step."""
 
@@ -106,14 +121,16 @@ class VecCollector:
         self.low = envs[0].action_space.low.astype(np.float32)
         self.high = envs[0].action_space.high.astype(np.float32)
         self.gen = torch.Generator().manual_seed(seed)
+        self.together = None if filmed else step_together(envs)
 
     def collect(self, policy: GaussianPolicy, steps_per_env: int) -> Batch:
         """A batch from the Gaussian policy: a ~ N(policy(s), exp(log_std)), one forward per step."""
         std = policy.log_std.detach().exp()
+        mean_action = policy.frozen_mean()  # the policy stays as it is until the batch is in
 
         @torch.no_grad()
         def sample(obs: np.ndarray) -> np.ndarray:
-            mean = policy(torch.from_numpy(obs))
+            mean = mean_action(torch.from_numpy(obs))
             return (mean + std * torch.randn(mean.shape, generator=self.gen)).numpy()
 
         return self.run(sample, steps_per_env)
@@ -142,6 +159,11 @@ class VecCollector:
             act_t = act(self.obs)
             actions[t] = act_t
             clipped = np.clip(act_t, self.low, self.high)
+            if self.together is not None:
+                self._step_together(
+                    clipped, t, next_obs, rewards, terminated, truncated, ep_returns
+                )
+                continue
             for i, env in enumerate(self.envs):
                 o, r, term, trunc, info = env.step(clipped[i])
                 self.episodes[i].actions.append(clipped[i])
@@ -171,6 +193,32 @@ class VecCollector:
             frames if filmed else None,
             next_frames if filmed else None,
         )
+
+    def _step_together(
+        self,
+        clipped: np.ndarray,
+        t: int,
+        next_obs: np.ndarray,
+        rewards: np.ndarray,
+        terminated: np.ndarray,
+        truncated: np.ndarray,
+        ep_returns: list[float],
+    ) -> None:
+        """`run`'s step t through the envs' batched step: the same values as stepping them one
+        by one, written into the batch's arrays."""
+        o, r, term, trunc = self.together(self.envs, clipped)
+        for episode, action in zip(self.episodes, clipped, strict=True):
+            episode.actions.append(action)
+        next_obs[t] = o
+        rewards[t] = r
+        self.ret += r
+        self.t += 1
+        self.obs[:] = o
+        terminated[t], truncated[t] = term, trunc & ~term
+        for i in np.flatnonzero(term | trunc):
+            ep_returns.append(float(self.ret[i]))
+            self.obs[i], _, self.episodes[i] = Episode.begin(self.envs[i])
+            self.ret[i], self.t[i] = 0.0, 0
 
     def state_dict(self) -> dict:
         """Where each env's episode stands (`Episode`), its step and return so far, and the
@@ -229,6 +277,15 @@ def evaluate(
     per step.
     """
     returns = np.full(episodes, np.nan)
+    together = step_together(envs)
+
+    def step(live: list[tuple[int, gym.Env]], acts: np.ndarray) -> Iterable[tuple]:
+        """Each live env's (obs, reward, terminated, truncated) after its action."""
+        stepping = [env for _, env in live]
+        if together is None:
+            return (env.step(a)[:4] for env, a in zip(stepping, acts, strict=True))
+        return zip(*together(stepping, acts), strict=True)
+
     free = list(envs)
     live: list[tuple[int, gym.Env]] = []
     obs: list[np.ndarray] = []
@@ -247,8 +304,9 @@ def evaluate(
             visited.append(batch)
         acts = checked_actions(policy(batch), len(batch), live[0][1].action_space.shape)
         keep = []
-        for j, ((k, env), a) in enumerate(zip(live, acts, strict=True)):
-            o, r, term, trunc, _ = env.step(a)
+        for j, ((k, env), (o, r, term, trunc)) in enumerate(
+            zip(live, step(live, acts), strict=True)
+        ):
             acc[j] += float(r)
             obs[j] = observation(o)
             if term or trunc:
