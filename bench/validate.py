@@ -10,6 +10,7 @@ field they bound. The suite file's own schema is `bench.harness.suite.schema`.
 from __future__ import annotations
 
 import json
+import re
 from collections.abc import Collection
 from functools import cache
 from typing import Any
@@ -168,3 +169,18 @@ def _name_characters(pattern: str) -> str:
 
 def _container(value: Any) -> str:
     return "mapping" if isinstance(value, dict) else "list"
+
+
+_DURATION = re.compile(r"(?:(\d+(?:\.\d+)?)h)?(?:(\d+(?:\.\d+)?)m)?(?:(\d+(?:\.\d+)?)s)?")
+
+
+def duration(text: str) -> float:
+    """Seconds of a positive duration written like 90m, 2h, 1h30m or 45s; else ValueError."""
+    match = _DURATION.fullmatch(text.strip())
+    if not text.strip() or match is None:
+        raise ValueError(f"not a duration like 90m, 2h or 1h30m: {text!r}")
+    hours, minutes, seconds = (float(g or 0) for g in match.groups())
+    total = hours * 3600 + minutes * 60 + seconds
+    if total <= 0:
+        raise ValueError(f"must be longer than 0, not {text!r}")
+    return total

@@ -4,10 +4,10 @@ from __future__ import annotations
 
 import argparse
 import os
-import re
 from collections.abc import Callable
 from pathlib import Path
 
+from bench import validate
 from bench.errors import BadInput
 
 
@@ -102,16 +102,9 @@ def _writable(path: Path, text: str) -> None:
         raise argparse.ArgumentTypeError(f"{text}: {existing} is not writable")
 
 
-_DURATION = re.compile(r"(?:(\d+(?:\.\d+)?)h)?(?:(\d+(?:\.\d+)?)m)?(?:(\d+(?:\.\d+)?)s)?")
-
-
 def duration(text: str) -> float:
     """argparse type: a positive duration in seconds, written like 90m, 2h, 1h30m or 45s."""
-    match = _DURATION.fullmatch(text.strip())
-    if not text.strip() or match is None:
-        raise argparse.ArgumentTypeError(f"not a duration like 90m, 2h or 1h30m: {text!r}")
-    hours, minutes, seconds = (float(g or 0) for g in match.groups())
-    total = hours * 3600 + minutes * 60 + seconds
-    if total <= 0:
-        raise argparse.ArgumentTypeError(f"must be longer than 0, not {text!r}")
-    return total
+    try:
+        return validate.duration(text)
+    except ValueError as e:
+        raise argparse.ArgumentTypeError(str(e)) from None

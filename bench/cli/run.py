@@ -76,6 +76,7 @@ def _run(args: argparse.Namespace) -> int:
             priced_by=results.parent,
             linked_from=reuse,
             snapshot_every=args.snapshot_every,
+            trial_timeout=args.trial_timeout or suite.runner.trial_timeout,
         )
     if summary.set_aside:
         print(
@@ -226,7 +227,15 @@ def add(sub: argparse._SubParsersAction) -> None:
         help="end the run DURATION from now (e.g. 2h30m): start the trials expected to finish"
         " by then (priced as --estimate prices them), dearest first, then those that can pause"
         " (every built-in algorithm's); at the limit, those in flight save a snapshot and stop,"
-        " to resume next run",
+        " to resume next run; one that has not stopped a minute later is stopped and left"
+        " pending",
+    )
+    run.add_argument(
+        "--trial-timeout",
+        type=duration,
+        metavar="DURATION",
+        help="stop a trial still running DURATION after it started and record it as failed"
+        " (default: the suite's runner.trial_timeout, else none)",
     )
     run.add_argument(
         "--snapshot-every",

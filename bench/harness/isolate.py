@@ -9,11 +9,15 @@ in this process, unguarded.
 
 from __future__ import annotations
 
+import contextlib
 import ctypes
 import os
 import pickle
+import select
 import signal
+import struct
 import sys
+import time
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
@@ -23,12 +27,16 @@ PR_SET_PDEATHSIG = 1
 
 @dataclass(frozen=True)
 class Died:
-    """How a child that returned nothing ended: its exit status, or the signal that killed it."""
+    """How a child that returned nothing ended: its exit status, the signal that killed it, or
+    the time limit it ran past (then it was killed)."""
 
     exit_status: int | None = None
     signal: int | None = None
+    timed_out: float | None = None
 
     def __str__(self) -> str:
+        if self.timed_out is not None:
+            return f"it ran past its time limit ({self.timed_out:,.0f} s) and was stopped"
         if self.signal is not None:
             name = signal.Signals(self.signal).name
             hint = " (the kernel's out-of-memory killer sends this)" if name == "SIGKILL" else ""
@@ -36,9 +44,16 @@ class Died:
         return f"its process exited with status {self.exit_status} before returning a result"
 
 
-def isolated(fn: Callable[..., Any], *args: Any) -> Any:
+LENGTH = struct.Struct("<Q")
+"""The result's length, sent before it: the parent reads that many bytes and stops, instead of
+waiting for the pipe's end, which a process the call forked and left behind may hold open."""
+
+
+def isolated(fn: Callable[..., Any], *args: Any, timeout: float | None = None) -> Any:
     """`fn(*args)` in a forked child: its return value (pickled back), or `Died`. An exception
-    inside `fn` is raised here again."""
+    inside `fn` is raised here again. The child leads a process group of its own; whatever it
+    started and left running is killed with the group once the call is over, and the whole
+    group past `timeout` seconds (then `Died(timed_out=timeout)`)."""
     if not hasattr(os, "fork"):
         return fn(*args)
     read_end, write_end = os.pipe()
@@ -46,6 +61,7 @@ def isolated(fn: Callable[..., Any], *args: Any) -> Any:
     pid = os.fork()
     if pid == 0:  # the child: run, send back, and leave without the parent's exit handlers
         os.close(read_end)
+        os.setpgid(0, 0)
         die_with_parent(parent)
         code = 0
         try:
@@ -57,15 +73,25 @@ def isolated(fn: Callable[..., Any], *args: Any) -> Any:
             except BaseException as e:  # noqa: BLE001 - it travels back to be raised there
                 payload = pickle.dumps((False, e))
             with os.fdopen(write_end, "wb") as pipe:
-                pipe.write(payload)
+                pipe.write(LENGTH.pack(len(payload)) + payload)
         except BaseException:  # noqa: BLE001 - nothing can be sent: the parent reads EOF
             code = code or 70
         finally:
             os._exit(code)
     os.close(write_end)
-    with os.fdopen(read_end, "rb") as pipe:
-        payload = pipe.read()
-    _, status = os.waitpid(pid, 0)
+    with contextlib.suppress(OSError):
+        os.setpgid(pid, pid)  # as the child does: whichever runs first
+    deadline = None if timeout is None else time.monotonic() + timeout
+    try:
+        with os.fdopen(read_end, "rb", buffering=0) as pipe:
+            payload, status = _receive(pipe, pid, deadline)
+    finally:
+        with contextlib.suppress(OSError):
+            os.killpg(pid, signal.SIGKILL)  # what the call left behind, or all of it if late
+    if status is None:
+        _, status = os.waitpid(pid, 0)
+    if payload is None:
+        return Died(timed_out=timeout)
     if not payload:
         if os.WIFSIGNALED(status):
             return Died(signal=os.WTERMSIG(status))
@@ -74,6 +100,44 @@ def isolated(fn: Callable[..., Any], *args: Any) -> Any:
     if not ok:
         raise value
     return value
+
+
+POLL_S = 1.0
+"""How often the parent looks whether the child has ended without a word (its pipe may stay
+open in a process it left behind, so the pipe's end alone does not say)."""
+
+
+def _receive(pipe: Any, pid: int, deadline: float | None) -> tuple[bytes | None, int | None]:
+    """The child's whole message (b"" where it ended without one; None past `deadline`), and
+    its wait status where it was reaped here."""
+    received = b""
+    while True:
+        wait = POLL_S if deadline is None else min(POLL_S, max(0.0, deadline - time.monotonic()))
+        if not select.select([pipe], [], [], wait)[0]:
+            reaped, status = os.waitpid(pid, os.WNOHANG)
+            if reaped:  # gone: what it sent before it went is all there is
+                while select.select([pipe], [], [], 0)[0] and (chunk := pipe.read(1 << 20)):
+                    received += chunk
+                return _message(received) or b"", status
+            if deadline is not None and time.monotonic() >= deadline:
+                return None, None
+            continue
+        chunk = pipe.read(1 << 20)
+        if not chunk:
+            return _message(received) or b"", None  # the pipe's end before a whole message
+        received += chunk
+        message = _message(received)
+        if message is not None:
+            return message, None
+
+
+def _message(received: bytes) -> bytes | None:
+    """The message in `received`, if all of it has arrived."""
+    if len(received) < LENGTH.size:
+        return None
+    (length,) = LENGTH.unpack_from(received)
+    whole = received[LENGTH.size : LENGTH.size + length]
+    return whole if len(whole) == length else None
 
 
 def die_with_parent(parent: int | None = None) -> None:

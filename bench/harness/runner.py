@@ -11,22 +11,25 @@ atomic file per finished trial, as results stream back.
 
 from __future__ import annotations
 
+import collections
 import itertools
 import os
+import time
 import warnings
 from collections.abc import Collection, Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
 import joblib
+from joblib.externals.loky.process_executor import TerminatedWorkerError
 from tqdm import tqdm
 
 from bench.errors import BadInput
 from bench.harness import policies, registry, snapshots, store
 from bench.harness.costs import CostModel, TimeLimit
 from bench.harness.snapshots import SnapshotPlan
-from bench.harness.trial import demo_pool, plan, run_trial_apart
-from bench.harness.types import TrialSpec
+from bench.harness.trial import demo_pool, ended, plan, run_trial_apart
+from bench.harness.types import TrialResult, TrialSpec
 
 
 @dataclass(frozen=True)
@@ -79,6 +82,7 @@ def _jobs(
     limit: TimeLimit | None = None,
     snapshot_plan: SnapshotPlan | None = None,
     in_workers: bool = False,
+    trial_timeout: float | None = None,
 ) -> Iterator:
     """The trials as joblib calls: the references every score is normalized against first (they
     cost an evaluation, and a run cut short without them leaves no trial that can be read),
@@ -111,7 +115,31 @@ def _jobs(
         spec = max(startable, key=order)  # first of equals: suite order
         remaining.remove(spec)
         inputs = plan(spec).inputs()
-        yield joblib.delayed(run_trial_apart)(spec, inputs, tensorboard, snapshot_plan, in_workers)
+        yield joblib.delayed(run_trial_apart)(
+            spec, inputs, tensorboard, snapshot_plan, in_workers, trial_timeout
+        )
+
+
+WORKER_DEATHS = 3
+"""A trial in flight when this many worker processes died, with no snapshot further between
+those deaths, is recorded as failed."""
+WORKER_DIED = (
+    f"TrialDied: its worker process died {WORKER_DEATHS} times while it ran, never a snapshot"
+    " further in between (killed from outside the run, or for memory)"
+)
+
+
+def _progress(plan: SnapshotPlan | None, trial_id: str) -> float:
+    """How far the trial's snapshot has got (0 without one)."""
+    return 0.0 if plan is None else plan.done_fraction(trial_id)
+
+
+def _tracked(calls: Iterator, in_flight: dict[str, TrialSpec]) -> Iterator:
+    """`calls` (joblib's delayed trials), noting each trial in `in_flight` as it is handed out."""
+    for call in calls:
+        spec = call[1][0]
+        in_flight[spec.trial_id] = spec
+        yield call
 
 
 def run_suite(
@@ -128,6 +156,7 @@ def run_suite(
     priced_by: Path | None = None,
     linked_from: Sequence[Path] | None = None,
     snapshot_every: float | None = snapshots.EVERY_S,
+    trial_timeout: float | None = None,
 ) -> RunSummary:
     """Run every pending trial in parallel, writing each record as it finishes; with
     `tensorboard`, each trial's scalars go there live as TensorBoard events. The trials of
@@ -140,7 +169,8 @@ def run_suite(
     (None: never) and resume from it after an interruption. Under a time `limit`, a trial starts
     if it is expected to finish in time or, with snapshots, if it can pause at the limit (see
     `_jobs`); at the limit every trial in flight that takes snapshots saves one and stops, and
-    the rest are left pending. With `linked_from`, finished trials are linked from the folders
+    the rest are left pending. A trial still running `trial_timeout` seconds after it started
+    is stopped and recorded as failed. With `linked_from`, finished trials are linked from the folders
     under those (the checkout's committed results, say) rather than `priced_by`'s. Records of
     these trials' cells made with other settings or
     another version of a plugin's code are moved aside first (`store.superseded`)."""
@@ -206,8 +236,11 @@ def run_suite(
             # Each trial runs in a process of its own, forked by the worker (`run_trial_apart`);
             # loky's workers also die with this driver, so an interrupted run leaves no orphans.
             in_workers = backend == "loky" and workers > 1
-            trials = _jobs(todo, costs, tensorboard, first, limit, snapshot_plan, in_workers)
-            for result in parallel(trials):
+            deaths: collections.Counter[str] = collections.Counter()
+            progress_at_death: dict[str, float] = {}
+
+            def land(result: TrialResult) -> None:
+                nonlocal done, failed, paused
                 del unfinished[result.trial_id]
                 if result.status == "paused":  # no record: its snapshot is what is kept
                     paused += 1
@@ -223,14 +256,51 @@ def run_suite(
                 elif result.status == "failed":
                     failed += 1
                     last = (result.traceback or "").strip().splitlines()[-1:] or ["?"]
-                    bar.write(
-                        f"failed: {result.spec.env_id} {result.spec.shown} seed {result.spec.seed}: {last[0]}"
-                    )
+                    spec = result.spec
+                    bar.write(f"failed: {spec.env_id} {spec.shown} seed {spec.seed}: {last[0]}")
                 bar.update(1)
                 # "left" counts the trials in flight in full: an upper bound.
                 left = costs.time_left(unfinished.values(), workers)
                 counts = {"done": done, "failed": failed} | ({"paused": paused} if paused else {})
                 bar.set_postfix(**counts, left=left)
+
+            while True:
+                in_flight: dict[str, TrialSpec] = {}
+                trials = _jobs(
+                    [s for s in todo if s.trial_id in unfinished],
+                    costs,
+                    tensorboard,
+                    first,
+                    limit,
+                    snapshot_plan,
+                    in_workers,
+                    trial_timeout,
+                )
+                try:
+                    for result in parallel(_tracked(trials, in_flight)):
+                        in_flight.pop(result.trial_id, None)
+                        land(result)
+                    break
+                except TerminatedWorkerError:
+                    # A worker killed from outside (by a user, the out-of-memory killer): the
+                    # pool stops every worker with it, so each trial in flight goes back to
+                    # pending (resuming from its snapshot); one that was in flight at
+                    # WORKER_DEATHS deaths with no snapshot further between them is recorded
+                    # failed, so a trial that kills its worker every time does not hold the run.
+                    for spec in in_flight.values():
+                        done_now = _progress(snapshot_plan, spec.trial_id)
+                        if done_now <= progress_at_death.get(spec.trial_id, 0.0):
+                            deaths[spec.trial_id] += 1  # no step further since the last one
+                        progress_at_death[spec.trial_id] = done_now
+                        if deaths[spec.trial_id] >= WORKER_DEATHS:
+                            land(ended(spec, time.time(), "failed", WORKER_DIED))
+                    bar.write(
+                        f"a worker process died (killed from outside the run?): {len(in_flight)}"
+                        " trials in flight start again, from their snapshots; the run goes on"
+                    )
+                    parallel = joblib.Parallel(
+                        n_jobs=jobs, return_as="generator_unordered", pre_dispatch="n_jobs"
+                    )
     finally:
         bar.close()
         if client is not None:

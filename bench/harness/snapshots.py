@@ -15,6 +15,7 @@ import contextlib
 import io
 import json
 import time
+import warnings
 from collections.abc import Iterable
 from dataclasses import dataclass
 from pathlib import Path
@@ -22,11 +23,13 @@ from typing import Any
 
 import torch
 
-from bench import atomic
+from bench import atomic, reading
 from bench.harness.types import TrialSpec
 
 FOLDER = ".partial"
 """Snapshots' folder in a results folder (hidden: it holds no records)."""
+TRIAL_KEY = "__trial__"
+"""The key under which a snapshot names its trial."""
 EVERY_S = 600.0
 """Default seconds between two snapshots of a trial: at most ~10 min of work lost."""
 
@@ -65,19 +68,38 @@ class SnapshotPlan:
 
     def write(self, trial_id: str, state: dict[str, Any], env_steps: int, budget: int) -> None:
         """Keep `state` as the trial's snapshot, then how far it got (in that order: progress
-        never claims more than the snapshot holds)."""
+        never claims more than the snapshot holds). The snapshot names its trial, so a copy
+        under another trial's name is never resumed. Where it cannot be kept (its path taken
+        by a folder, a full disk), the trial says so and trains on without one."""
         data = io.BytesIO()
-        torch.save(state, data)
-        atomic.write_bytes(self.path(trial_id), data.getvalue())
-        progress = {"env_steps": env_steps, "budget": budget}
-        atomic.write_text(self.progress_path(trial_id), json.dumps(progress))
+        torch.save({**state, TRIAL_KEY: trial_id}, data)
+        try:
+            atomic.write_bytes(self.path(trial_id), data.getvalue())
+            progress = {"env_steps": env_steps, "budget": budget}
+            atomic.write_text(self.progress_path(trial_id), json.dumps(progress))
+        except OSError as e:
+            warnings.warn(
+                f"trial {trial_id}: cannot keep a snapshot at {self.path(trial_id)}"
+                f" ({e.strerror or e}); it trains on, and a cut-off would restart it",
+                stacklevel=2,
+            )
 
     def read(self, trial_id: str) -> dict[str, Any] | None:
-        """The trial's last snapshot, or None where it has none."""
+        """The trial's last snapshot, or None where it has none (or only one of another trial,
+        copied under its name: that one is set aside with a warning)."""
         path = self.path(trial_id)
         if not path.is_file():
             return None
-        return torch.load(path, map_location="cpu", weights_only=True)
+        state = torch.load(path, map_location="cpu", weights_only=True)
+        saved_for = state.pop(TRIAL_KEY, trial_id) if isinstance(state, dict) else None
+        if saved_for != trial_id:
+            warnings.warn(
+                f"{path} is a snapshot of trial {saved_for}, not of {trial_id}: not resumed;"
+                " the trial starts afresh",
+                stacklevel=2,
+            )
+            return None
+        return state
 
     def done_before(self, specs: Iterable[TrialSpec]) -> dict[str, float]:
         """Trial id -> `done_fraction`, for `costs.CostModel.done_before`."""
@@ -86,7 +108,7 @@ class SnapshotPlan:
     def done_fraction(self, trial_id: str) -> float:
         """How much of its budget the trial's last snapshot has behind it (0: none)."""
         try:
-            progress = json.loads(self.progress_path(trial_id).read_text())
+            progress = json.loads(reading.read_bytes(self.progress_path(trial_id), 4096))
             return min(1.0, max(0.0, progress["env_steps"] / progress["budget"]))
         except (OSError, ValueError, KeyError, TypeError, ZeroDivisionError):
             return 0.0
@@ -100,5 +122,5 @@ class SnapshotPlan:
         run killed while writing one left of it (`bench.atomic`'s temp files)."""
         leftovers = self.folder.glob(f"{trial_id}.*.tmp")
         for path in (self.progress_path(trial_id), self.path(trial_id), *leftovers):
-            with contextlib.suppress(FileNotFoundError):
+            with contextlib.suppress(OSError):  # gone already, or never a file (a folder)
                 path.unlink()

@@ -29,7 +29,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from bench import atomic
+from bench import atomic, reading
 from bench.errors import BadInput
 from bench.harness import policies, registry
 from bench.harness.types import OPTIONAL_FIELDS, CurvePoint, TrialResult, TrialSpec
@@ -185,20 +185,30 @@ def copy_folder(results_dir: str | Path, to: str | Path) -> Path:
 def real_path(path: str | Path) -> Path:
     """The record file that `path` stands for: itself, or the one a link names."""
     path = Path(path)
-    raw = json.loads(path.read_text())
+    raw = _json(path)
     if isinstance(raw, dict) and LINK in raw:
         return Path(os.path.normpath(path.parent / raw[LINK]))
     return path
+
+
+MAX_RECORD_BYTES = 64 * 2**20
+"""A record is read only up to this size (a 10M-step trial's, logs and all, is ~1 MB)."""
+
+
+def _json(path: str | Path) -> Any:
+    """A record file's JSON: a regular file of at most MAX_RECORD_BYTES (a FIFO or a device
+    where a record or a link's target is expected is refused, never waited on)."""
+    return json.loads(reading.read_bytes(path, MAX_RECORD_BYTES, "trial record"))
 
 
 def read(path: str | Path) -> TrialResult:
     """Rebuild a TrialResult (with its TrialSpec and CurvePoints) from a record, or from the
     record a link names, as the linking suite's (its name and label; `stored_in` the folder
     that holds it)."""
-    raw = json.loads(Path(path).read_text())
+    raw = _json(path)
     if LINK in raw:
         target = Path(os.path.normpath(Path(path).parent / raw[LINK]))
-        if LINK in json.loads(target.read_text()):
+        if LINK in _json(target):
             raise ValueError(f"{path} links to {target}, itself a link")
         result = read(target)
         spec = dataclasses.replace(result.spec, suite=raw["suite"], label=raw["spec_label"])

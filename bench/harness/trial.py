@@ -374,30 +374,54 @@ def run_trial(
     )
 
 
+OVERRUN_S = 60.0
+"""How long past its run's time limit a trial that has not paused by itself (one that takes no
+snapshots, or has no chance to) is given before it is stopped and left pending."""
+
+
 def run_trial_apart(
     spec: TrialSpec,
     inputs: Any,
     tensorboard: str | Path | None = None,
     snapshots: SnapshotPlan | None = None,
     in_worker: bool = False,
+    timeout: float | None = None,
 ) -> TrialResult:
     """`run_trial` in a process of its own (`bench.harness.isolate`): where that process dies (a
-    segfault, a kill for memory, an exit inside the algorithm), the trial is recorded as failed
-    with how it died, and the run goes on with the others. `in_worker`: this is a worker
-    process of the run's pool, which must die with the run's driver."""
+    segfault, a kill for memory, an exit inside the algorithm) or runs past `timeout` seconds,
+    the trial is recorded as failed with how it ended, and the run goes on with the others.
+    Past its run's time limit (`snapshots.stop_at`) by OVERRUN_S, it is stopped and left
+    pending ("paused"), its last snapshot kept. `in_worker`: this is a worker process of the
+    run's pool, which must die with the run's driver."""
     if in_worker:
         die_with_parent()
     start = time.time()
-    result = isolated(run_trial, spec, inputs, tensorboard, snapshots)
+    stop_at = None if snapshots is None or snapshots.stop_at is None else snapshots.stop_at
+    limits = [timeout] if timeout is not None else []
+    if stop_at is not None:
+        limits.append(max(0.0, stop_at + OVERRUN_S - start))
+    result = isolated(
+        run_trial, spec, inputs, tensorboard, snapshots, timeout=min(limits, default=None)
+    )
     if not isinstance(result, Died):
         return result
+    ran_out = result.timed_out is not None and (timeout is None or result.timed_out < timeout)
+    if ran_out:  # the run's time limit, not the trial's own
+        return ended(spec, start, "paused", None)
+    if result.timed_out is not None:
+        return ended(spec, start, "failed", f"TrialTimedOut: {result} (the suite's trial_timeout)")
+    return ended(spec, start, "failed", f"TrialDied: {result}")
+
+
+def ended(spec: TrialSpec, start: float, status: str, traceback: str | None) -> TrialResult:
+    """The result of a trial (started at `start`) whose process ended without one."""
     return TrialResult(
         spec=spec,
-        status="failed",
+        status=status,
         returns=[],
         curve=[],
         env_steps=0,
         wall_time=round(time.time() - start, 3),
         versions=versions(spec.env_id),
-        traceback=f"TrialDied: {result}",
+        traceback=traceback,
     )

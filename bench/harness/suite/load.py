@@ -12,6 +12,7 @@ from typing import Any
 
 import yaml
 
+from bench import reading, validate
 from bench.harness import paths, registry
 from bench.harness.demos import POOL_SIZE as DEMO_POOL_SIZE
 from bench.harness.envs import EnvError, check_env_id
@@ -61,21 +62,66 @@ def _construct_mapping(loader: _StrictLoader, node: yaml.MappingNode) -> dict:
 _StrictLoader.add_constructor(yaml.resolver.BaseResolver.DEFAULT_MAPPING_TAG, _construct_mapping)
 
 
+MAX_YAML_BYTES = 2**20
+"""A suite or settings file is read only up to this size (the largest shipped one is ~10 KB)."""
+MAX_YAML_VALUES = 100_000
+"""...and only if it holds at most this many values with its aliases expanded: a few
+kilobytes of nested aliases (`&a [*b, *b, ...]`) would otherwise expand to gigabytes."""
+
+
 def _read_yaml(path: Path, what: str = "suite") -> Any:
-    if not path.is_file():
-        others = sorted(p.stem for p in path.parent.glob("*.y*ml")) if path.parent.is_dir() else []
+    if not path.exists() and not path.is_symlink():
+        folder = path.parent
+        others = sorted(p.stem for p in folder.glob("*.y*ml")) if folder.is_dir() else []
         hint = f" ({what}s there: {', '.join(others)})" if others else ""
         raise SuiteError(f"{path}: no such {what} file{hint}")
     try:
-        return yaml.load(path.read_text(), Loader=_StrictLoader)  # a SafeLoader
+        text = reading.read_text(path, MAX_YAML_BYTES, f"{what} file")
+    except reading.UnreadableFile as e:
+        raise SuiteError(str(e)) from None
+    try:
+        loader = _StrictLoader(text)
+        try:
+            node = loader.get_single_node()
+            if node is None:
+                return None
+            if _expanded_size(node, {}) > MAX_YAML_VALUES:
+                raise SuiteError(
+                    f"{path}: more than {MAX_YAML_VALUES:,} values once its aliases are"
+                    f" expanded: not a {what} file"
+                )
+            return loader.construct_document(node)
+        finally:
+            loader.dispose()
     except RecursionError:
         raise SuiteError(f"{path}: invalid YAML: nested too deeply") from None
     except yaml.MarkedYAMLError as e:
         mark = e.problem_mark
         where = f"line {mark.line + 1}, column {mark.column + 1}: " if mark else ""
         raise SuiteError(f"{path}: {where}invalid YAML: {e.problem}") from None
-    except (yaml.YAMLError, UnicodeDecodeError) as e:
+    except yaml.YAMLError as e:
         raise SuiteError(f"{path}: invalid YAML: {checks.one_line(str(e))}") from None
+
+
+def _expanded_size(node: yaml.Node, sizes: dict[int, int]) -> int:
+    """How many values `node` stands for with every alias expanded (memoized by node, so
+    counting is linear in the file; a node inside itself counts as too many)."""
+    if id(node) in sizes:
+        return sizes[id(node)]
+    sizes[id(node)] = MAX_YAML_VALUES + 1  # while counting it: an alias to it is a cycle
+    if isinstance(node, yaml.SequenceNode):
+        children = node.value
+    elif isinstance(node, yaml.MappingNode):
+        children = [part for pair in node.value for part in pair]
+    else:
+        children = []
+    total = 1
+    for child in children:
+        total += _expanded_size(child, sizes)
+        if total > MAX_YAML_VALUES:
+            break
+    sizes[id(node)] = total
+    return total
 
 
 # ---------------------------------------------------------------- validating
@@ -111,7 +157,13 @@ def _suite(raw: Any, path: Path) -> Suite:
                     f"demos[{i}]",
                     f"expected at most {DEMO_POOL_SIZE} (the shipped demonstrations), got {n}",
                 )
-    runner = RunnerSettings(file.runner.jobs, file.runner.backend, tuple(file.runner.first))
+    timeout = file.runner.trial_timeout
+    runner = RunnerSettings(
+        file.runner.jobs,
+        file.runner.backend,
+        tuple(file.runner.first),
+        None if timeout is None else validate.duration(timeout),
+    )
     algorithms = _algorithms(file.algorithms)
 
     # Lookups last: they are the slow part and the structure is known good by now.
@@ -167,11 +219,24 @@ them as the shipped suites do, `settings: settings/mujoco.yaml`."""
 
 
 def settings_path(suite: Path, named: str) -> Path:
-    """The settings file a suite at `suite` names: beside the suite, else the shipped one of
-    that name."""
-    beside = suite.parent / named
-    shipped = SHIPPED_SETTINGS / named
-    return shipped if not beside.exists() and shipped.is_file() else beside
+    """The settings file a suite at `suite` names: beside the suite (in its folder or below),
+    else the shipped one of that name. A name that leads anywhere else (an absolute path,
+    `..`, a link out of the folder) is refused before anything is read: a suite is a file a
+    stranger may hand you, and its settings must not be a way to read the machine's files."""
+    folders = (suite.parent, SHIPPED_SETTINGS)
+    beside, shipped = (folder / named for folder in folders)
+    path = shipped if not beside.exists() and shipped.is_file() else beside
+    if Path(named).is_absolute() or not any(_inside(path, folder) for folder in folders):
+        raise checks.Invalid(
+            "settings",
+            f"{named!r} leads out of the suite's folder; a settings file lives beside its suite"
+            " or is a shipped one (settings/mujoco.yaml, settings/pybullet.yaml)",
+        )
+    return path
+
+
+def _inside(path: Path, folder: Path) -> bool:
+    return path.resolve().is_relative_to(folder.resolve())
 
 
 def _settings(path: Path) -> dict[str, schema.SettingsEntry]:
@@ -179,7 +244,8 @@ def _settings(path: Path) -> dict[str, schema.SettingsEntry]:
     as an env's `trpo` and `hyperparams` are."""
     raw = _read_yaml(path, "settings")
     if not isinstance(raw, dict):
-        raise checks.Invalid("settings", f"{path}: expected a mapping of env ids, got {show(raw)}")
+        # nothing of the file is echoed: it may be something else than it was meant to be
+        raise checks.Invalid("settings", f"{path}: expected a mapping of env ids")
     entries = {}
     for env_id, entry in raw.items():
         key = f"settings: {path}: {env_id}"

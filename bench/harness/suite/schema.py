@@ -78,6 +78,16 @@ class RunnerFile(BaseModel):
         list[Annotated[str, Field(min_length=1)]], pydantic.AfterValidator(_distinct)
     ] = []
     """Algorithms (names or labels) whose trials run before the others'."""
+    trial_timeout: str | None = None
+    """A trial still running this long after it started (a duration: 90m, 2h) is stopped and
+    recorded as failed; none by default."""
+
+    @pydantic.field_validator("trial_timeout")
+    @classmethod
+    def _trial_timeout(cls, text: str | None) -> str | None:
+        if text is not None:
+            validate.duration(text)
+        return text
 
     @pydantic.field_validator("jobs")
     @classmethod

@@ -22,6 +22,9 @@ class RunnerSettings:
     first: tuple[str, ...] = ()
     """Algorithms (names or labels) whose trials run before the others': the headline
     learners of a long run land first, so a run cut short has them at every demo count."""
+    trial_timeout: float | None = None
+    """Seconds after which a trial still running is stopped and recorded as failed (a stuck
+    plugin frees its worker); None: no limit."""
 
 
 @dataclass(frozen=True)
