@@ -233,3 +233,17 @@ def test_performance_profile():
     assert (profile["lo"] <= profile["fraction"]).all() and (
         profile["fraction"] <= profile["hi"]
     ).all()
+
+
+def test_one_seed_has_no_interval():
+    """Resampling one seed gives it back every time: no interval, not a zero-width one."""
+    from bench.analysis import markdown, stats
+
+    one, two = np.array([[0.5, 0.7]]), np.array([[0.4, 0.2], [0.6, 0.9]])
+    cells = stats.aggregate_scores({"one": one, "two": two}, reps=200)
+    assert cells[cells.algorithm == "one"][["lo", "hi"]].isna().all().all()
+    assert cells[cells.algorithm == "two"][["lo", "hi"]].notna().all().all()
+    row = cells[(cells.algorithm == "one") & (cells.metric == "iqm")].iloc[0]
+    assert markdown.interval(row.estimate, row.lo, row.hi) == "0.60"
+    pairs = stats.improvement_of_pairs({"one": one, "two": two}, [("one", "two")], reps=200)
+    assert pairs[["lo", "hi"]].isna().all().all()

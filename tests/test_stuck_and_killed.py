@@ -181,3 +181,48 @@ def _loky_workers(driver: int) -> list[int]:
         if parent == driver and b"LokyProcess" in command:
             workers.append(int(entry.name))
     return sorted(workers)
+
+
+def test_a_reader_that_leaves_fails_no_trial(tmp_path):
+    """`bench run ... | head`: what a trial prints after the reader left goes nowhere; the
+    call still returns its result."""
+    code = (
+        "import time\n"
+        "from bench.harness.isolate import isolated\n"
+        "def chatty():\n"
+        "    time.sleep(1.0)\n"
+        "    for i in range(10000):\n"
+        "        print('line', i, flush=True)\n"
+        "    return 'computed'\n"
+        "import sys\n"
+        "sys.stderr.write(repr(isolated(chatty)))\n"
+    )
+    reader, writer = os.pipe()
+    proc = subprocess.Popen(
+        [sys.executable, "-c", code], stdout=writer, stderr=subprocess.PIPE, text=True
+    )
+    os.close(writer)
+    os.close(reader)  # the reader leaves before anything is printed
+    _, err = proc.communicate(timeout=60)
+    assert "'computed'" in err and "BrokenPipeError" not in err, err
+
+
+def test_a_policies_file_where_the_folder_goes_is_refused_before_any_work(tmp_path, bench_here):
+    (tmp_path / "r").mkdir()
+    (tmp_path / "r" / "policies").write_text("not a folder")
+    out = bench_here(
+        "run", str(Path(__file__).parent.parent / "suites" / "quick.yaml"), "--results",
+        str(tmp_path / "r"),
+    )  # fmt: skip
+    assert out.returncode == 2 and "is a file where a run keeps its policies" in out.stderr
+    assert not (tmp_path / "r" / "trials").exists()
+
+
+def test_a_policy_that_does_not_load_back_fails_its_trial(monkeypatch):
+    from bench.harness import policies
+    from bench.rl.networks import DeterministicPolicy, GaussianPolicy
+
+    good = policies.to_bytes(DeterministicPolicy(GaussianPolicy(3, 1), [-1.0], [1.0]))
+    assert policies.from_bytes(good)(__import__("numpy").zeros((2, 3))).shape == (2, 1)
+    with pytest.raises(policies.PolicyError, match="the trained policy: not a policy file"):
+        policies.from_bytes(good[: len(good) // 2])

@@ -174,13 +174,19 @@ def aggregate_scores(
                 "algorithm": name,
                 "metric": metric,
                 "estimate": float(points[name][i]),
-                "lo": float(intervals[name][0, i]),
-                "hi": float(intervals[name][1, i]),
+                "lo": _bound(intervals[name][0, i], scores[name]),
+                "hi": _bound(intervals[name][1, i], scores[name]),
             }
             for name in scores
             for i, metric in enumerate(METRICS)
         ]
     )
+
+
+def _bound(value: float, *samples: np.ndarray) -> float:
+    """A bootstrap bound, or NaN (no interval) where a sample holds one run: resampling one
+    seed gives that seed back every time, an interval of zero width that claims certainty."""
+    return float(value) if all(len(x) > 1 for x in samples) else float("nan")
 
 
 def probability_of_improvement(
@@ -222,8 +228,8 @@ def improvement_of_pairs(
                 "algorithm": a,
                 "other": b,
                 "estimate": float(np.squeeze(points[key])),
-                "lo": float(np.squeeze(intervals[key][0])),
-                "hi": float(np.squeeze(intervals[key][1])),
+                "lo": _bound(np.squeeze(intervals[key][0]), scores[a], scores[b]),
+                "hi": _bound(np.squeeze(intervals[key][1]), scores[a], scores[b]),
             }
             for key, (a, b) in zip(keyed, pairs, strict=True)
         ],

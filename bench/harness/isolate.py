@@ -63,6 +63,7 @@ def isolated(fn: Callable[..., Any], *args: Any, timeout: float | None = None) -
         os.close(read_end)
         os.setpgid(0, 0)
         die_with_parent(parent)
+        _outlive_readers()
         code = 0
         try:
             try:
@@ -138,6 +139,39 @@ def _message(received: bytes) -> bytes | None:
     (length,) = LENGTH.unpack_from(received)
     whole = received[LENGTH.size : LENGTH.size + length]
     return whole if len(whole) == length else None
+
+
+def _outlive_readers() -> None:
+    """Writes to stdout or stderr whose reader has left (`bench run ... | head`) go nowhere
+    from now on, instead of raising BrokenPipeError inside the call: a reader that leaves is
+    no failure of what the call computes."""
+    for name in ("stdout", "stderr"):
+        stream = getattr(sys, name)
+        if stream is not None:
+            setattr(sys, name, _Unbroken(stream))
+
+
+class _Unbroken:
+    """A text stream that, once its reader has left, drops what is written to it."""
+
+    def __init__(self, stream: Any) -> None:
+        self._stream = stream
+
+    def write(self, text: str) -> int:
+        try:
+            return self._stream.write(text)
+        except BrokenPipeError:
+            self._stream = open(os.devnull, "w")  # noqa: SIM115 - replaces the stream for good
+            return len(text)
+
+    def flush(self) -> None:
+        try:
+            self._stream.flush()
+        except BrokenPipeError:
+            self._stream = open(os.devnull, "w")  # noqa: SIM115
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self._stream, name)
 
 
 def die_with_parent(parent: int | None = None) -> None:

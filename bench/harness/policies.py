@@ -61,32 +61,40 @@ class PolicyError(BadInput, ValueError):
     """A policy file that cannot be loaded as one, or that names code it may not."""
 
 
-def load(file: str | Path) -> Any:
+def from_bytes(data: bytes) -> Any:
+    """The policy `to_bytes` gave these bytes for, as `load` rebuilds it from its file: a trial
+    checks its policy this way before it is recorded ok (one that cannot be rebuilt would fail
+    only later, in a video)."""
+    return load(io.BytesIO(data), "the trained policy")
+
+
+def load(file: str | Path | io.BytesIO, name: str | None = None) -> Any:
     """The policy saved in `file`, ready to act: numpy observations in, actions out.
 
     A file is data: what it may name to rebuild it is a closed set, the built-in kinds and the
     classes of registered algorithms' own packages; anything else is refused in one line
-    before it is imported."""
+    before it is imported. `name`: what messages call it (default: the file's path)."""
+    name = name or str(file)
     try:
         state = torch.load(file, weights_only=True)
     except Exception as e:  # a malicious pickle (refused by weights_only), a torn file
-        raise PolicyError(f"{file}: not a policy file ({type(e).__name__})") from None
+        raise PolicyError(f"{name}: not a policy file ({type(e).__name__})") from None
     if not isinstance(state, dict):
-        raise PolicyError(f"{file}: not a policy file (no state dict)")
+        raise PolicyError(f"{name}: not a policy file (no state dict)")
     if CLASS not in state:
         if state.get("kind") not in KINDS:
-            raise PolicyError(f"{file}: unknown policy kind {str(state.get('kind'))[:40]!r}")
+            raise PolicyError(f"{name}: unknown policy kind {str(state.get('kind'))[:40]!r}")
         return KINDS[state["kind"]].from_state(state)
-    module, _, name = str(state[CLASS]).partition(":")
+    module, _, qualname = str(state[CLASS]).partition(":")
     if module.split(".")[0] not in _registered_packages():
         raise PolicyError(
-            f"{file}: names {module[:60]!r}, which is no registered algorithm's package"
+            f"{name}: names {module[:60]!r}, which is no registered algorithm's package"
         )
     cls: Any = importlib.import_module(module)
-    for part in name.split("."):
+    for part in qualname.split("."):
         cls = getattr(cls, part, None)
     if not isinstance(cls, type) or not callable(getattr(cls, "from_state", None)):
-        raise PolicyError(f"{file}: names {state[CLASS][:60]!r}, which is no policy class")
+        raise PolicyError(f"{name}: names {state[CLASS][:60]!r}, which is no policy class")
     return cls.from_state(state)
 
 

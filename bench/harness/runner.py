@@ -14,6 +14,7 @@ from __future__ import annotations
 import collections
 import itertools
 import os
+import sys
 import time
 import warnings
 from collections.abc import Collection, Iterator, Sequence
@@ -120,7 +121,7 @@ def _jobs(
         )
 
 
-WORKER_DEATHS = 3
+WORKER_DEATHS = 10
 """A trial in flight when this many worker processes died, with no snapshot further between
 those deaths, is recorded as failed."""
 WORKER_DIED = (
@@ -132,6 +133,15 @@ WORKER_DIED = (
 def _progress(plan: SnapshotPlan | None, trial_id: str) -> float:
     """How far the trial's snapshot has got (0 without one)."""
     return 0.0 if plan is None else plan.done_fraction(trial_id)
+
+
+def _say(bar: tqdm, line: str) -> None:
+    """A line above the progress bar, on stdout; where its reader has left (`| head`), the run
+    goes on without it (stdout goes nowhere from then on)."""
+    try:
+        bar.write(line)
+    except BrokenPipeError:
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
 
 
 def _tracked(calls: Iterator, in_flight: dict[str, TrialSpec]) -> Iterator:
@@ -257,7 +267,7 @@ def run_suite(
                     failed += 1
                     last = (result.traceback or "").strip().splitlines()[-1:] or ["?"]
                     spec = result.spec
-                    bar.write(f"failed: {spec.env_id} {spec.shown} seed {spec.seed}: {last[0]}")
+                    _say(bar, f"failed: {spec.env_id} {spec.shown} seed {spec.seed}: {last[0]}")
                 bar.update(1)
                 # "left" counts the trials in flight in full: an upper bound.
                 left = costs.time_left(unfinished.values(), workers)
@@ -294,9 +304,10 @@ def run_suite(
                         progress_at_death[spec.trial_id] = done_now
                         if deaths[spec.trial_id] >= WORKER_DEATHS:
                             land(ended(spec, time.time(), "failed", WORKER_DIED))
-                    bar.write(
+                    _say(
+                        bar,
                         f"a worker process died (killed from outside the run?): {len(in_flight)}"
-                        " trials in flight start again, from their snapshots; the run goes on"
+                        " trials in flight start again, from their snapshots; the run goes on",
                     )
                     parallel = joblib.Parallel(
                         n_jobs=jobs, return_as="generator_unordered", pre_dispatch="n_jobs"

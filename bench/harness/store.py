@@ -78,6 +78,12 @@ def claim(results_dir: str | Path) -> Iterator[None]:
     running every trial twice. The lock is the kernel's (flock), so a killed run leaves none
     behind. Also where an unwritable folder is found, before any trial trains."""
     folder = Path(results_dir)
+    for name in (TRIALS, policies.FOLDER):
+        if (folder / name).exists() and not (folder / name).is_dir():
+            raise FolderBusy(
+                f"{folder / name} is a file where a run keeps its {name}: move it away, or use"
+                " --results"
+            )
     try:
         trials_dir(folder).mkdir(parents=True, exist_ok=True)
         handle = open(folder / LOCK, "a")  # noqa: SIM115 - held for the whole run

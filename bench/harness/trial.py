@@ -337,6 +337,8 @@ def run_trial(
             returns = evaluate(policy, eval_envs, spec.eval_episodes, eval_seed, visited)
             # the expert's policy is shipped (results/experts), not kept per trial
             saved = None if algo.role == "expert" else policies.to_bytes(policy)
+            if saved is not None:
+                policies.from_bytes(saved)  # it must load back, or the trial did not end well
             distance = expert_distance(spec, visited) if visited else None
         if not np.all(np.isfinite(returns)):
             raise FloatingPointError("evaluation returned a non-finite return")
