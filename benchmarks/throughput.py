@@ -10,13 +10,15 @@
 
 Prints one row per env. `raw (library)` steps the env as pybullet_envs_gymnasium or gymnasium
 ships it, `raw` with `bench.harness.bullet_speed` or `bench.harness.mujoco_speed` (what every
-trial runs; same trajectories). `batched` steps the MuJoCo task in EnvPool's C++ batch (8
-envs, one thread), where EnvPool is installed (`pip install envpool`); trials do not use it. `trpo/raw` =
-TRPO training throughput (updates included) over raw stepping: the simulator is the limit,
-everything else is overhead. `gaifo/raw` likewise for GAIfO (discriminator updates and
-rewards included). GAIfO needs the env's expert (for one demonstration).
-With --pixels, raw stepping renders every frame and the networks are convolutional:
-`trpo/raw` then says how much of training is the networks' rather than the renderer's.
+trial runs; same trajectories). `envpool` steps the MuJoCo task in EnvPool's C++ batch (8
+envs, one thread), where EnvPool is installed (`pip install envpool`); trials do not use it.
+`TRPO` and `GAIfO` are training throughput (updates included; GAIfO's discriminator and
+rewards too). `GAIfO 1-by-1` (MuJoCo) steps the collector's envs one at a time, as before
+`bench.harness.mujoco_batch`. `physics` is the simulator's own rate on GAIfO's trajectories
+(the time inside its C calls during that run, `physics_clock`), so `gaifo/physics` is the
+share of training time the simulator takes: 1 would be training at the simulator's pace.
+GAIfO needs the env's expert (for one demonstration).
+With --pixels, raw stepping renders every frame and the networks are convolutional.
 """
 
 from __future__ import annotations

@@ -11,11 +11,9 @@ atomic file per finished trial, as results stream back.
 
 from __future__ import annotations
 
-import collections
 import itertools
 import os
 import sys
-import time
 import warnings
 from collections.abc import Collection, Iterator, Sequence
 from dataclasses import dataclass
@@ -29,7 +27,7 @@ from bench.errors import BadInput
 from bench.harness import policies, registry, snapshots, store
 from bench.harness.costs import CostModel, TimeLimit
 from bench.harness.snapshots import SnapshotPlan
-from bench.harness.trial import demo_pool, ended, plan, run_trial_apart
+from bench.harness.trial import demo_pool, plan, run_trial_apart
 from bench.harness.types import TrialResult, TrialSpec
 
 
@@ -122,17 +120,12 @@ def _jobs(
 
 
 WORKER_DEATHS = 10
-"""A trial in flight when this many worker processes died, with no snapshot further between
-those deaths, is recorded as failed."""
-WORKER_DIED = (
-    f"TrialDied: its worker process died {WORKER_DEATHS} times while it ran, never a snapshot"
-    " further in between (killed from outside the run, or for memory)"
-)
+"""Worker processes that may die in a row, with no trial landing in between, before the run
+stops (something keeps killing them: the same command resumes once it is gone)."""
 
 
-def _progress(plan: SnapshotPlan | None, trial_id: str) -> float:
-    """How far the trial's snapshot has got (0 without one)."""
-    return 0.0 if plan is None else plan.done_fraction(trial_id)
+class WorkersDying(BadInput, RuntimeError):
+    """Worker processes keep dying and no trial lands: the run stops (one line, exit 2)."""
 
 
 def _say(bar: tqdm, line: str) -> None:
@@ -246,11 +239,11 @@ def run_suite(
             # Each trial runs in a process of its own, forked by the worker (`run_trial_apart`);
             # loky's workers also die with this driver, so an interrupted run leaves no orphans.
             in_workers = backend == "loky" and workers > 1
-            deaths: collections.Counter[str] = collections.Counter()
-            progress_at_death: dict[str, float] = {}
+            deaths_in_a_row = 0
 
             def land(result: TrialResult) -> None:
-                nonlocal done, failed, paused
+                nonlocal done, failed, paused, deaths_in_a_row
+                deaths_in_a_row = 0
                 del unfinished[result.trial_id]
                 if result.status == "paused":  # no record: its snapshot is what is kept
                     paused += 1
@@ -294,16 +287,15 @@ def run_suite(
                 except TerminatedWorkerError:
                     # A worker killed from outside (by a user, the out-of-memory killer): the
                     # pool stops every worker with it, so each trial in flight goes back to
-                    # pending (resuming from its snapshot); one that was in flight at
-                    # WORKER_DEATHS deaths with no snapshot further between them is recorded
-                    # failed, so a trial that kills its worker every time does not hold the run.
-                    for spec in in_flight.values():
-                        done_now = _progress(snapshot_plan, spec.trial_id)
-                        if done_now <= progress_at_death.get(spec.trial_id, 0.0):
-                            deaths[spec.trial_id] += 1  # no step further since the last one
-                        progress_at_death[spec.trial_id] = done_now
-                        if deaths[spec.trial_id] >= WORKER_DEATHS:
-                            land(ended(spec, time.time(), "failed", WORKER_DIED))
+                    # pending and starts again from its snapshot. Nothing is failed for it;
+                    # only if workers keep dying with no trial landing does the run stop.
+                    deaths_in_a_row += 1
+                    if deaths_in_a_row >= WORKER_DEATHS:
+                        raise WorkersDying(
+                            f"{deaths_in_a_row} worker processes died in a row and no trial"
+                            " landed in between (something keeps killing them?): stopped;"
+                            " the same command resumes where this run stopped"
+                        ) from None
                     _say(
                         bar,
                         f"a worker process died (killed from outside the run?): {len(in_flight)}"
