@@ -291,6 +291,19 @@ def test_trials_resuming_from_a_snapshot_run_before_new_ones():
     assert order == [dear, resumed]
 
 
+def test_a_labelled_variant_is_priced_by_its_own_records_once_it_has_some():
+    """Wider networks cost otherwise: a variant goes by its algorithm only until it has run."""
+    plain = TrialSpec("t", PENDULUM, "oracle", 0, 0, 1000, 1)
+    wide = dataclasses.replace(plain, label="oracle-wide", hyperparams={"hidden": [256, 256]})
+    costs = CostModel.of([finished(plain, 10.0)])
+    seconds, basis = costs.price(dataclasses.replace(wide, seed=1))
+    assert seconds == pytest.approx(10.0) and "oracle's: no oracle-wide trial yet" in basis
+    costs.observe(finished(wide, 80.0))
+    seconds, basis = costs.price(dataclasses.replace(wide, seed=1))
+    assert seconds == pytest.approx(80.0) and basis == "median of 1 trials"
+    assert costs.price(dataclasses.replace(plain, seed=1))[0] == pytest.approx(10.0)
+
+
 def test_a_time_limit_starts_the_dearest_trial_that_still_fits_and_then_stops():
     # Survival at 0.01 s per step: 50, 30 and 20 s; gaifo never timed.
     specs = [

@@ -135,8 +135,9 @@ def _estimate(specs: list, results: Path, jobs: int, reuse: list[Path]) -> int:
             + ", ".join(f"{n} from {folder}/" for folder, n in sorted(where.items()))
         )
     width = max([36, *(len(r.env_id) for r in rows)])
+    named = max([14, *(len(r.algorithm) for r in rows)])
     print(
-        f"{'env':{width}s} {'algorithm':14s} {'trials':>6s} {'per trial':>10s} {'core-h':>7s}  basis"
+        f"{'env':{width}s} {'algorithm':{named}s} {'trials':>6s} {'per trial':>10s} {'core-h':>7s}  basis"
     )
     known = 0.0
     for r in sorted(rows, key=lambda r: (r.env_id, r.algorithm)):
@@ -144,7 +145,7 @@ def _estimate(specs: list, results: Path, jobs: int, reuse: list[Path]) -> int:
         hours = "?" if r.seconds is None else f"{r.seconds * r.trials / 3600:.2f}"
         known += 0.0 if r.seconds is None else r.seconds * r.trials
         print(
-            f"{r.env_id:{width}s} {r.algorithm:14s} {r.trials:6d} {each:>10s} {hours:>7s}  {r.basis}"
+            f"{r.env_id:{width}s} {r.algorithm:{named}s} {r.trials:6d} {each:>10s} {hours:>7s}  {r.basis}"
         )
     cut_off = [f for f in done_before.values() if f > 0]
     if cut_off:

@@ -22,10 +22,16 @@ def observed(spec: TrialSpec) -> str | None:
 
 
 def cost_kind(spec: TrialSpec) -> tuple[str, str]:
-    """What a trial's cost per env step depends on: its env as observed, and its algorithm.
+    """What a trial's cost per env step depends on: its env as observed, and its algorithm, or
+    the variant of it its label names (wider networks or more value epochs cost otherwise).
     Frames cost ~100x states per step, so they are another kind: "ENV (pixels)"."""
     seen = observed(spec)
-    return (spec.env_id if seen is None else f"{spec.env_id} ({seen})"), spec.algorithm
+    return (spec.env_id if seen is None else f"{spec.env_id} ({seen})"), priced_as(spec)
+
+
+def priced_as(spec: TrialSpec) -> str:
+    """The name a trial's records are priced under: its variant's label, else its algorithm."""
+    return spec.label or spec.algorithm
 
 
 @dataclass
@@ -116,7 +122,8 @@ class CostModel:
         if record.status == "ok" and record.spec.budget > 0:
             spec = record.spec
             with self.lock:
-                tally = self.done.setdefault((observed(spec), spec.env_id, spec.algorithm), Tally())
+                key = (observed(spec), spec.env_id, priced_as(spec))
+                tally = self.done.setdefault(key, Tally())
                 tally.add(record.wall_time, spec.budget, trained=record.env_steps > 0)
 
     def finished(self, record: TrialResult) -> None:
@@ -137,17 +144,29 @@ class CostModel:
         return taken / expected if expected > 0 else 1.0
 
     def price(self, spec: TrialSpec) -> tuple[float | None, str]:
-        """Expected wall seconds of `spec` (None: nothing to go by), and what that rests on."""
+        """Expected wall seconds of `spec` (None: nothing to go by), and what that rests on. A
+        labelled variant goes by its own records; with none anywhere yet, by its algorithm's,
+        and the basis says so (its settings may cost otherwise)."""
+        name = priced_as(spec)
+        with self.lock:
+            variant_seen = any(n == name for (_, _, n) in self.done)
+        if name != spec.algorithm and not variant_seen:
+            seconds, basis = self._price(spec, spec.algorithm)
+            return seconds, f"{basis}; {spec.algorithm}'s: no {name} trial yet"
+        return self._price(spec, name)
+
+    def _price(self, spec: TrialSpec, name: str) -> tuple[float | None, str]:
+        """`price` from the records kept under `name`."""
         seen = observed(spec)
         with self.lock:
             by_env = {  # this env's, if measured, and every other env's seen the same way
                 env: tally.at(spec.budget)
                 for (o, env, algorithm), tally in self.done.items()
-                if o == seen and algorithm == spec.algorithm
+                if o == seen and algorithm == name
             }
-            here = self.done.get((seen, spec.env_id, spec.algorithm), Tally()).trials
+            here = self.done.get((seen, spec.env_id, name), Tally()).trials
             measured = spec.env_id in by_env  # else: scaled from the algorithms measured here
-            scaled = None if measured else self._scaled(seen, spec.env_id, spec.algorithm)
+            scaled = None if measured else self._scaled(seen, spec.env_id, name)
         if measured:
             return by_env[spec.env_id], f"median of {here} trials"
         if scaled is not None:
@@ -157,7 +176,7 @@ class CostModel:
             slowest = max(by_env, key=by_env.get)
             shown = slowest if seen is None else f"{slowest} ({seen})"
             return by_env[slowest], f"rough: as on {shown}, the slowest measured"
-        return None, f"no finished {spec.algorithm} trial"
+        return None, f"no finished {name} trial"
 
     def _scaled(
         self, seen: str | None, env_id: str, algorithm: str
