@@ -247,3 +247,24 @@ def test_one_seed_has_no_interval():
     assert markdown.interval(row.estimate, row.lo, row.hi) == "0.60"
     pairs = stats.improvement_of_pairs({"one": one, "two": two}, [("one", "two")], reps=200)
     assert pairs[["lo", "hi"]].isna().all().all()
+
+
+def test_the_verdict_says_differs_of_at_most_5_percent_of_splits_of_one_sample():
+    """Both halves of one sample of 10 seeds are draws of one distribution: over every split
+    into 5 against 5, the rank test calls at most 5% different, even of bimodal scores where
+    the bootstrap CI of the IQM difference called more."""
+    import itertools
+
+    scores = np.array([0.05, 0.1, 0.12, 0.9, 0.95, 0.97, 1.0, 1.01, 0.08, 0.99])
+    calls = []
+    for half in itertools.combinations(range(10), 5):
+        a, b = scores[list(half)], np.delete(scores, list(half))
+        calls.append(stats.verdict_of(a, b, stats.permutation_p(a, b)) == "differs")
+    assert 0 < np.mean(calls) <= stats.ALPHA
+    separated = stats.permutation_p(np.zeros(5), np.ones(5))
+    assert (
+        separated < stats.ALPHA
+        and stats.verdict_of(np.zeros(5), np.ones(5), separated) == "differs"
+    )
+    assert stats.verdict_of(scores, scores[::-1].copy(), 1.0) == "identical"
+    assert stats.permutation_p(np.ones(3), np.zeros(3)) == pytest.approx(0.1)  # 3 seeds: never

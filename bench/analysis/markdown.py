@@ -84,18 +84,20 @@ def compare_table(
             interval(r["run_iqm"], r["run_lo"], r["run_hi"]) + f" ({r['run_seeds']})",
             interval(r["ref_iqm"], r["ref_lo"], r["ref_hi"]) + f" ({r['ref_seeds']})",
             interval(r["diff"], r["diff_lo"], r["diff_hi"]),
-            "**differs**" if r["verdict"] == "differs" else "agrees",
+            "**differs**" if r["verdict"] == "differs" else r["verdict"],
         ]
         for _, r in ordered.iterrows()
     ]
-    agree = int((comparison["verdict"] == "agrees").sum())
+    agree = int((comparison["verdict"] != "differs").sum())
+    same = int((comparison["verdict"] == "identical").sum())
     lines = [
         table(pd.DataFrame(rows, columns=header)),
         "",
-        f"{agree} of {len(comparison)} rows agree. IQM of normalized returns over seeds (seed"
-        " count in parentheses), both"
-        " normalized with the reference's random and expert returns; a row differs when the 95%"
-        " bootstrap CI of the IQM difference excludes 0.",
+        f"{agree} of {len(comparison)} rows agree{f' ({same} identical)' if same else ''}. IQM"
+        " of normalized returns over seeds (seed count in parentheses), both normalized with the"
+        " reference's random and expert returns; a row differs when a permutation test of the"
+        " IQM difference gives p < 0.05 (under one distribution, 5% of rows at most), and is"
+        " identical when both hold the same scores.",
     ]
     if any(unlike):
         lines.append(

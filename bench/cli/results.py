@@ -158,7 +158,8 @@ def add(sub: argparse._SubParsersAction) -> None:
         " algorithms of one folder",
         description="Per env, algorithm and demo count in both folders (or per env and demo"
         " count, two algorithms of one folder with --between): each side's IQM over seeds with"
-        " a 95%% CI, and whether they differ (the CI of the difference excludes 0).",
+        " a 95% CI, and a verdict: identical (the same scores), differs (a rank test by"
+        " permutation gives p < 0.05: under one distribution 5% of rows at most) or agrees.",
     )
     cmp.add_argument("run", help="a suite's results folder, e.g. runs/quick")
     cmp.add_argument(
