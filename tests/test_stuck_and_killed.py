@@ -107,9 +107,7 @@ def test_a_trial_past_the_suites_trial_timeout_is_failed_and_the_run_goes_on(tmp
 
 
 @pytest.mark.usefixtures("demo_cache")
-def test_a_trial_that_does_not_pause_is_stopped_soon_after_the_time_limit(
-    tmp_path, monkeypatch
-):
+def test_a_trial_that_does_not_pause_is_stopped_soon_after_the_time_limit(tmp_path, monkeypatch):
     from bench.harness.snapshots import SnapshotPlan
     from bench.harness.suite import load_suite
 

@@ -338,7 +338,7 @@ def permutation_p(run: np.ndarray, ref: np.ndarray, seed: int = 0) -> float:
 
 
 def verdict_of(run: np.ndarray, ref: np.ndarray, p: float) -> str:
-    """"identical" where both samples hold the same scores (a rerun computed to the bit),
+    """ "identical" where both samples hold the same scores (a rerun computed to the bit),
     "differs" where p < ALPHA, else "agrees"."""
     if len(run) == len(ref) and np.array_equal(np.sort(run), np.sort(ref)):
         return "identical"
