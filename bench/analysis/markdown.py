@@ -95,8 +95,8 @@ def compare_table(
         "",
         f"{agree} of {len(comparison)} rows agree{f' ({same} identical)' if same else ''}. IQM"
         " of normalized returns over seeds (seed count in parentheses), both normalized with the"
-        " reference's random and expert returns; a row differs when a permutation test of the"
-        " IQM difference gives p < 0.05 (under one distribution, 5% of rows at most), and is"
+        " reference's random and expert returns; a row differs when a rank test by permutation"
+        " gives p < 0.05 (under one distribution, 5% of rows at most), and is"
         " identical when both hold the same scores.",
     ]
     if any(unlike):

@@ -79,9 +79,12 @@ class TrialSpec:
     @property
     def setting_id(self) -> str:
         """What decides the trial but its seed, hashed: trials that differ only in their seed
-        share it, so seeds of one setting are compared only with seeds of the same setting."""
+        share it, so seeds of one setting are compared only with seeds of the same setting.
+        The CPU kernels it ran on are no part of it: a record made with portable kernels is a
+        draw of the same setting as one made with the CPU's own (what `bench compare` asks)."""
         spec = self.decisive()
         del spec["seed"]
+        spec.pop("kernels", None)
         return hashlib.sha256(_canonical(spec).encode()).hexdigest()[:12]
 
     @property
