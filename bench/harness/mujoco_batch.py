@@ -93,10 +93,6 @@ def _time_limits(envs: Sequence[gym.Env]) -> np.ndarray:
     return truncated
 
 
-def _rows(arrays: list[np.ndarray]) -> np.ndarray:
-    return np.stack(arrays)
-
-
 def _control_costs(task: Any, actions: np.ndarray) -> np.ndarray:
     """Each row's `ctrl_cost_weight * np.sum(np.square(action))` (a reduction along each
     contiguous row sums as the 1-D one does)."""
@@ -109,8 +105,8 @@ def _planar(envs: Sequence[gym.Env], actions: np.ndarray, clip_velocity: bool) -
     tasks = _tasks(envs, actions)
     x_before = np.array([task.data.qpos[0] for task in tasks])
     _simulate(tasks, actions)
-    qpos = _rows([task.data.qpos for task in tasks])
-    qvel = _rows([task.data.qvel for task in tasks])
+    qpos = np.stack([task.data.qpos for task in tasks])
+    qvel = np.stack([task.data.qvel for task in tasks])
     x_velocity = (qpos[:, 0] - x_before) / tasks[0]._step_dt
     velocity = qvel.clip(-10, 10) if clip_velocity else qvel
     observation = np.concatenate((qpos[:, 1:], velocity), axis=1)
@@ -156,12 +152,12 @@ def _ant(envs: Sequence[gym.Env], actions: np.ndarray) -> Stepped:
     torso = task.model.body(task._main_body).id
     xy_before = np.array([t.data.xpos[torso, :2] for t in tasks])
     _simulate(tasks, actions)
-    xy_after = _rows([t.data.xpos[torso, :2] for t in tasks])
+    xy_after = np.stack([t.data.xpos[torso, :2] for t in tasks])
     x_velocity = ((xy_after - xy_before) / task._step_dt)[:, 0]
-    qpos = _rows([t.data.qpos for t in tasks])
-    qvel = _rows([t.data.qvel for t in tasks])
+    qpos = np.stack([t.data.qpos for t in tasks])
+    qvel = np.stack([t.data.qvel for t in tasks])
     min_force, max_force = task._contact_force_range
-    forces = _rows([t.data.cfrc_ext for t in tasks]).clip(min_force, max_force)
+    forces = np.stack([t.data.cfrc_ext for t in tasks]).clip(min_force, max_force)
     n = len(tasks)
     observation = np.concatenate((qpos[:, 2:], qvel, forces[:, 1:].reshape(n, -1)), axis=1)
     state = np.concatenate((qpos, qvel), axis=1)

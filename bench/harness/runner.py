@@ -137,14 +137,6 @@ def _say(bar: tqdm, line: str) -> None:
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
 
 
-def _tracked(calls: Iterator, in_flight: dict[str, TrialSpec]) -> Iterator:
-    """`calls` (joblib's delayed trials), noting each trial in `in_flight` as it is handed out."""
-    for call in calls:
-        spec = call[1][0]
-        in_flight[spec.trial_id] = spec
-        yield call
-
-
 def run_suite(
     specs: list[TrialSpec],
     results_dir: Path,
@@ -268,7 +260,6 @@ def run_suite(
                 bar.set_postfix(**counts, left=left)
 
             while True:
-                in_flight: dict[str, TrialSpec] = {}
                 trials = _jobs(
                     [s for s in todo if s.trial_id in unfinished],
                     costs,
@@ -280,8 +271,7 @@ def run_suite(
                     trial_timeout,
                 )
                 try:
-                    for result in parallel(_tracked(trials, in_flight)):
-                        in_flight.pop(result.trial_id, None)
+                    for result in parallel(trials):
                         land(result)
                     break
                 except TerminatedWorkerError:
@@ -298,8 +288,8 @@ def run_suite(
                         ) from None
                     _say(
                         bar,
-                        f"a worker process died (killed from outside the run?): {len(in_flight)}"
-                        " trials in flight start again, from their snapshots; the run goes on",
+                        "a worker process died (killed from outside the run?): the trials in"
+                        " flight start again, from their snapshots; the run goes on",
                     )
                     parallel = joblib.Parallel(
                         n_jobs=jobs, return_as="generator_unordered", pre_dispatch="n_jobs"
