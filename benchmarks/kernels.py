@@ -17,7 +17,7 @@ import statistics
 import subprocess
 import sys
 
-from bench.harness import kernels
+from bench import kernels
 
 CHILD = """
 import json, sys, time

@@ -5,7 +5,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from bench.harness import envs, experts
+from bench import envs
+from bench.demos import experts
 from bench.rl.rollout import evaluate
 
 

@@ -9,12 +9,12 @@
     python benchmarks/throughput.py --library   # everything with the simulators' own stepping: the before
 
 Prints one row per env. `raw (library)` steps the env as pybullet_envs_gymnasium or gymnasium
-ships it, `raw` with `bench.harness.bullet_speed` or `bench.harness.mujoco_speed` (what every
+ships it, `raw` with `bench.envs.bullet_speed` or `bench.envs.mujoco_speed` (what every
 trial runs; same trajectories). `envpool` steps the MuJoCo task in EnvPool's C++ batch (8
 envs, one thread), where EnvPool is installed (`pip install envpool`); trials do not use it.
 `TRPO` and `GAIfO` are training throughput (updates included; GAIfO's discriminator and
 rewards too). `GAIfO 1-by-1` (MuJoCo) steps the collector's envs one at a time, as before
-`bench.harness.mujoco_batch`. `physics` is the simulator's own rate on GAIfO's trajectories
+`bench.envs.mujoco_batch`. `physics` is the simulator's own rate on GAIfO's trajectories
 (the time inside its C calls during that run, `physics_clock`), so `gaifo/physics` is the
 share of training time the simulator takes: 1 would be training at the simulator's pace.
 GAIfO needs the env's expert (for one demonstration).
@@ -31,8 +31,9 @@ from collections.abc import Iterator
 import numpy as np
 import torch
 
-from bench.harness import envs, mujoco_batch, mujoco_speed
-from bench.harness.pixels import PixelConfig
+from bench import envs
+from bench.envs import mujoco_batch, mujoco_speed
+from bench.envs.pixels import PixelConfig
 from bench.rl.shared_trunk import make_trpo
 from bench.rl.trpo import TRPOConfig, train
 
@@ -58,7 +59,7 @@ def physics_clock() -> Iterator[list[float]]:
     MuJoCo: what `MujocoEnv.do_simulation` runs (ctrl, `mj_step` x frame_skip,
     `mj_rnePostConstraint`), whether a task steps alone or E at a time. PyBullet: the scene's
     `stepSimulation` calls and the robot's state reads (`calc_state`, as
-    `bench.harness.bullet_speed` makes it)."""
+    `bench.envs.bullet_speed` makes it)."""
     import mujoco
     from pybullet_envs_gymnasium.robot_locomotors import WalkerBase
     from pybullet_envs_gymnasium.scene_abstract import Scene
@@ -148,13 +149,14 @@ def gaifo_steps_per_s(
     is its rate over the simulator's own on the same trajectories."""
     from algorithms import gaifo
     from algorithms.adversarial import AdversarialConfig
-    from bench.harness import demos, paths
+    from bench import paths
+    from bench.demos import pools
     from bench.harness.registry import Task
 
     if not paths.has_expert(env_id):
         return float("nan"), float("nan")
     obs_dim, act_dim, low, high = envs.spaces(env_id, pixels)
-    demo = demos.load_demos(demos.ensure_pool(env_id, pixels), env_id, 1, 0, pixels)
+    demo = pools.load_demos(pools.ensure_pool(env_id, pixels), env_id, 1, 0, pixels)
     timings: list[tuple[int, float]] = []
     start = time.perf_counter()
 
@@ -227,15 +229,15 @@ def main() -> None:
     parser.add_argument(
         "--library",
         action="store_true",
-        help="run everything with the simulators' own stepping (bench.harness.bullet_speed and"
-        " bench.harness.mujoco_speed off)",
+        help="run everything with the simulators' own stepping (bench.envs.bullet_speed and"
+        " bench.envs.mujoco_speed off)",
     )
     args = parser.parse_args()
     pixels = PixelConfig(size=args.frame_size) if args.pixels else None
     torch.set_num_threads(1)
     pybullet = [e for e in args.envs if envs.is_pybullet(e)]
     if pybullet:
-        from bench.harness import bullet_speed
+        from bench.envs import bullet_speed
 
         envs.make(pybullet[0], 0).close()  # registers the envs, and with them the patches
     header = (

@@ -22,7 +22,7 @@ import numpy as np
 import torch
 from references import reference_returns  # benchmarks/references.py, beside this script
 
-from bench.harness import envs
+from bench import envs
 from bench.harness.trial import StepTally, plan
 from bench.harness.types import TrialSpec
 from bench.rl.rollout import evaluate

@@ -28,7 +28,7 @@ def module_cache(tmp_path_factory, pendulum_pool):
     holding a copy of the pendulum's pool."""
     mp = pytest.MonkeyPatch()
     root = tmp_path_factory.mktemp("cache")
-    mp.setattr("bench.harness.paths.CACHE_DIR", root)
+    mp.setattr("bench.paths.CACHE_DIR", root)
     _copy_pendulum_pool(pendulum_pool)
     yield root
     mp.undo()
@@ -91,7 +91,7 @@ def demo_cache(tmp_path, monkeypatch, pendulum_pool):
     holding a copy of the pendulum's pool (`pendulum_pool`); every other pool is recorded in
     it as a user's cache records it."""
     monkeypatch.setenv("IFO_BENCH_CACHE", str(tmp_path / "cache"))
-    monkeypatch.setattr("bench.harness.paths.CACHE_DIR", tmp_path / "cache")
+    monkeypatch.setattr("bench.paths.CACHE_DIR", tmp_path / "cache")
     _copy_pendulum_pool(pendulum_pool)
 
 
@@ -100,19 +100,19 @@ def pendulum_pool(tmp_path_factory) -> Path:
     """The pendulum expert's pool of demonstrations, recorded once per test process: most
     tests train on it, and recording it costs ~10 s of CPU, which a dozen tests each paid when
     every test recorded its own. A copy goes into each test's cache, so none sees another's."""
-    from bench.harness import demos
+    from bench.demos import pools
 
     with pytest.MonkeyPatch.context() as mp:  # recorded as a user's cache records it
-        mp.setattr("bench.harness.paths.CACHE_DIR", tmp_path_factory.mktemp("pendulum-pool"))
-        return demos.ensure_pool(PENDULUM)
+        mp.setattr("bench.paths.CACHE_DIR", tmp_path_factory.mktemp("pendulum-pool"))
+        return pools.ensure_pool(PENDULUM)
 
 
 def _copy_pendulum_pool(pool: Path) -> None:
-    """Put a copy of `pool` where the bench cache (`bench.harness.paths.CACHE_DIR`, as patched now)
+    """Put a copy of `pool` where the bench cache (`bench.paths.CACHE_DIR`, as patched now)
     keeps the pendulum's pool."""
-    from bench.harness import demos
+    from bench.demos import pools
 
-    path = demos.pool_path(PENDULUM)
+    path = pools.pool_path(PENDULUM)
     path.parent.mkdir(parents=True, exist_ok=True)
     shutil.copyfile(pool, path)
 

@@ -84,7 +84,8 @@ def test_discriminator_learns_that_falling_is_not_expert_like(tmp_path, monkeypa
     """InvertedPendulum's expert never drops the pole; an untrained policy drops it every few
     dozen steps. Within a few updates D must judge the absorbing state as the policy's: the
     signed reward there turns negative, so falling costs for the rest of the horizon."""
-    from bench.harness import demos, paths
+    from bench import paths
+    from bench.demos import pools
     from bench.harness.trial import run_trial
     from bench.harness.types import TrialSpec
 
@@ -92,8 +93,8 @@ def test_discriminator_learns_that_falling_is_not_expert_like(tmp_path, monkeypa
     spec = TrialSpec(
         "t", pendulum, "gaifo", 1, 0, 8 * 2048, 2, {"absorbing": True, "reward": "log D - log(1-D)"}
     )
-    pool = demos.ensure_pool(pendulum)
-    result = run_trial(spec, demos.load_demos(pool, pendulum, 1, 0))
+    pool = pools.ensure_pool(pendulum)
+    result = run_trial(spec, pools.load_demos(pool, pendulum, 1, 0))
     assert result.status == "ok", result.traceback
     absorbing_reward = result.logs["reward_absorbing"]
     assert len(absorbing_reward) >= 4

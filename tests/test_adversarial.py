@@ -3,8 +3,8 @@ import pytest
 import torch
 
 from algorithms.adversarial import AdversarialConfig, disc_normalizer, floor_absorbing
+from bench.envs.pixels import PixelConfig
 from bench.harness import store
-from bench.harness.pixels import PixelConfig
 from bench.harness.registry import Task
 from bench.imitation.data import Demos
 from bench.imitation.discriminator import REWARDS

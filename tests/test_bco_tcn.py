@@ -8,7 +8,8 @@ import pytest
 import torch
 
 from algorithms import bco, tcn
-from bench.harness import envs, registry
+from bench import envs
+from bench.harness import registry
 from bench.harness.trial import plan, run_trial
 from bench.harness.types import TrialSpec
 from bench.imitation import embedding, inverse_dynamics

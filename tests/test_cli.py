@@ -116,7 +116,7 @@ def test_run_of_an_env_not_in_the_suite(finished_results, tmp_path, bench_here):
 def test_results_never_land_in_the_shipped_experts_folder(where, tmp_path, bench_here, monkeypatch):
     """A suite named `experts` run without --results, or --results naming the experts' folder
     or a folder above it, is refused before anything is written there."""
-    from bench.harness import paths
+    from bench import paths
 
     experts = snapshot(paths.EXPERTS_DIR)
     monkeypatch.chdir(paths.EXPERTS_DIR.parent.parent)  # where `results/<name>` is results/experts
@@ -401,7 +401,7 @@ def test_a_full_disk_is_one_line_and_leaves_nothing_partial(command, tmp_path):
 
 def test_a_demonstration_cache_under_a_file_is_one_line(tmp_path, bench_here, monkeypatch):
     (tmp_path / "file").write_text("mine")
-    monkeypatch.setattr("bench.harness.paths.CACHE_DIR", tmp_path / "file" / "cache")
+    monkeypatch.setattr("bench.paths.CACHE_DIR", tmp_path / "file" / "cache")
     suite = tmp_path / "s.yaml"
     suite.write_text(GOOD)
     out = bench_here("run", str(suite), "--results", str(tmp_path / "res"))

@@ -4,7 +4,7 @@ import sys
 import numpy as np
 import pytest
 
-from bench.harness import envs
+from bench import envs
 
 
 def rollout(env_id: str, seed: int, steps: int = 200) -> np.ndarray:
@@ -37,9 +37,9 @@ def test_same_seed_same_rollout(env_id):
     ["HopperBulletEnv-v0", "Walker2DBulletEnv-v0", "HalfCheetahBulletEnv-v0", "AntBulletEnv-v0"],
 )
 def test_the_speed_patches_step_like_the_library(env_id):
-    """bench.harness.bullet_speed reads the same simulator state with fewer calls: a speed-up only, so
+    """bench.envs.bullet_speed reads the same simulator state with fewer calls: a speed-up only, so
     the same seed gives the same trajectory and rewards, bit for bit, through falls and resets."""
-    from bench.harness import bullet_speed
+    from bench.envs import bullet_speed
 
     fast = trajectory(env_id, 5, steps=400)
     bullet_speed.restore()
@@ -77,7 +77,7 @@ def assert_bit_equal(a, b) -> None:
 
 @pytest.mark.parametrize("env_id", ["Hopper-v5", "Walker2d-v5", "HalfCheetah-v5", "Ant-v5"])
 def test_the_mujoco_speed_up_steps_like_the_library(env_id):
-    """bench.harness.mujoco_speed computes each step's values once instead of twice: the same
+    """bench.envs.mujoco_speed computes each step's values once instead of twice: the same
     observations, rewards (and their types), ends and infos as gymnasium's own step, to the bit,
     through falls and resets, at full and at gentle random actions."""
     import gymnasium as gym
@@ -102,7 +102,7 @@ def test_the_mujoco_speed_up_leaves_other_options_to_the_library(tmp_path, monke
 
     monkeypatch.chdir(tmp_path)  # MuJoCo's notes on Ant's model file land in MUJOCO_LOG.TXT here
 
-    from bench.harness import mujoco_speed
+    from bench.envs import mujoco_speed
 
     ant = mujoco_speed.speed_up(gym.make("Ant-v5", include_cfrc_ext_in_observation=False))
     hopper = mujoco_speed.speed_up(
@@ -128,7 +128,7 @@ def test_spaces_of_a_plain_gymnasium_env():
 
 
 def test_pybullet_noise_does_not_reach_stdout():
-    code = "from bench.harness import envs; e = envs.make('HopperBulletEnv-v0', 0); e.step(e.action_space.sample()); print('ok')"
+    code = "from bench import envs; e = envs.make('HopperBulletEnv-v0', 0); e.step(e.action_space.sample()); print('ok')"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout == "ok\n"
     assert "argv[0]" not in out.stderr and "build time" not in out.stderr

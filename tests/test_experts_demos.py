@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 import torch
 
-from bench import cli
-from bench.harness import demos, experts, paths
+from bench import cli, paths
+from bench.demos import experts, pools
 from bench.imitation.data import ActionDemos, Demos
 from bench.rl.trpo import TRPOConfig
 
@@ -70,12 +70,12 @@ def test_experts_list_markdown(tmp_path, monkeypatch, capsys, table_rows, table_
 
 def test_demos_keep_final_observation_and_hide_actions(tiny_expert):
     env_id, _ = tiny_expert
-    path = demos.ensure_pool(env_id)
-    state_only = demos.load_demos(path, env_id, k=3, seed=0)
+    path = pools.ensure_pool(env_id)
+    state_only = pools.load_demos(path, env_id, k=3, seed=0)
     assert isinstance(state_only, Demos) and state_only.n_episodes == 3
     assert "actions" not in {f.name for f in dataclasses.fields(Demos)}
     assert not hasattr(state_only, "actions")
-    with_actions = demos.load_action_demos(path, env_id, k=3, seed=0)
+    with_actions = pools.load_action_demos(path, env_id, k=3, seed=0)
     assert isinstance(with_actions, ActionDemos)
     for obs, acts in zip(with_actions.demos.observations, with_actions.actions, strict=True):
         assert len(obs) == len(acts) + 1  # T actions, T + 1 observations
@@ -87,10 +87,10 @@ def test_demos_keep_final_observation_and_hide_actions(tiny_expert):
 
 def test_demo_draw_is_deterministic_and_seed_dependent(tiny_expert):
     env_id, _ = tiny_expert
-    path = demos.ensure_pool(env_id)
-    first = demos.load_demos(path, env_id, k=5, seed=1).observations
-    again = demos.load_demos(path, env_id, k=5, seed=1).observations
-    other = demos.load_demos(path, env_id, k=5, seed=2).observations
+    path = pools.ensure_pool(env_id)
+    first = pools.load_demos(path, env_id, k=5, seed=1).observations
+    again = pools.load_demos(path, env_id, k=5, seed=1).observations
+    other = pools.load_demos(path, env_id, k=5, seed=2).observations
     assert all(np.array_equal(a, b) for a, b in zip(first, again, strict=True))
     assert not all(
         len(a) == len(b) and np.array_equal(a, b) for a, b in zip(first, other, strict=True)
@@ -99,41 +99,41 @@ def test_demo_draw_is_deterministic_and_seed_dependent(tiny_expert):
 
 def test_demo_file_from_another_env_is_rejected(tiny_expert, tmp_path):
     env_id, _ = tiny_expert
-    path = demos.ensure_pool(env_id)
+    path = pools.ensure_pool(env_id)
     with pytest.raises(
-        demos.DemoError, match=f"holds demonstrations of {env_id}, not HopperBulletEnv-v0"
+        pools.DemoError, match=f"holds demonstrations of {env_id}, not HopperBulletEnv-v0"
     ):
-        demos.load_demos(path, "HopperBulletEnv-v0")
+        pools.load_demos(path, "HopperBulletEnv-v0")
     junk = tmp_path / "junk.npz"
     junk.write_text("not a zip")
-    with pytest.raises(demos.DemoError, match="is not a demo file"):
-        demos.load_demos(junk, env_id)
-    with pytest.raises(demos.DemoError, match="does not exist"):
-        demos.load_demos(tmp_path / "missing.npz", env_id)
-    with pytest.raises(demos.DemoError, match="asked for 26 demonstrations"):
-        demos.load_demos(path, env_id, k=26)
+    with pytest.raises(pools.DemoError, match="is not a demo file"):
+        pools.load_demos(junk, env_id)
+    with pytest.raises(pools.DemoError, match="does not exist"):
+        pools.load_demos(tmp_path / "missing.npz", env_id)
+    with pytest.raises(pools.DemoError, match="asked for 26 demonstrations"):
+        pools.load_demos(path, env_id, k=26)
 
 
 def test_demos_say_which_episodes_terminated(tiny_expert):
     """A barely trained expert drops the pole (terminated) well before the 1000-step time limit."""
     env_id, _ = tiny_expert
-    pool = demos.load_demos(demos.ensure_pool(env_id), env_id)
+    pool = pools.load_demos(pools.ensure_pool(env_id), env_id)
     lengths = [len(o) - 1 for o in pool.observations]
     assert pool.terminated == tuple(n < 1000 for n in lengths)
     assert any(pool.terminated)
-    drawn = demos.load_demos(demos.ensure_pool(env_id), env_id, k=5, seed=3)
+    drawn = pools.load_demos(pools.ensure_pool(env_id), env_id, k=5, seed=3)
     assert drawn.terminated == tuple(len(o) - 1 < 1000 for o in drawn.observations)
 
 
 def test_demos_show_lists_each_episode_and_the_seeds_given_it(tiny_expert, bench_here):
     env_id, _ = tiny_expert
-    path = demos.ensure_pool(env_id)
-    pool = demos.load_demos(path, env_id)
+    path = pools.ensure_pool(env_id)
+    pool = pools.load_demos(path, env_id)
     out = bench_here("demos", "show", env_id, "--demos", "3", "--seeds", "4")
     assert out.returncode == 0, out.stderr
     head, _, *lines = out.stdout.splitlines()
     assert f"{sum(pool.terminated)} ending in a terminal state" in head
-    assert len(lines) == demos.POOL_SIZE
+    assert len(lines) == pools.POOL_SIZE
     given: dict[int, list[int]] = {seed: [] for seed in range(4)}
     for i, line in enumerate(lines):
         index, steps, _, *rest = line.split()
@@ -143,13 +143,13 @@ def test_demos_show_lists_each_episode_and_the_seeds_given_it(tiny_expert, bench
         for seed in rest:
             given[int(seed.rstrip(","))].append(i)
     for seed, episodes in given.items():  # what a trial of that seed is handed
-        drawn = demos.load_demos(path, env_id, k=3, seed=seed).observations
+        drawn = pools.load_demos(path, env_id, k=3, seed=seed).observations
         assert len(episodes) == 3
         assert all(
             np.array_equal(a, pool.observations[i]) for a, i in zip(drawn, episodes, strict=True)
         )
 
-    out = bench_here("demos", "show", env_id, "--demos", str(demos.POOL_SIZE + 1))
+    out = bench_here("demos", "show", env_id, "--demos", str(pools.POOL_SIZE + 1))
     assert out.returncode == 2 and "the pool has 25 episodes" in out.stderr
     assert out.stdout == "" and len(out.stderr.strip().splitlines()) == 1
 
@@ -168,7 +168,7 @@ def test_killed_expert_training_resumes_from_its_checkpoint(tmp_path):
     budget, cfg = 16384, TRPOConfig(n_envs=4, steps_per_env=256)
     settings = f"{env_id!r}, {budget}, seed=0, cfg={cfg!r}"
     script = (
-        "from pathlib import Path\nfrom bench.harness import experts\nfrom bench.rl.trpo import TRPOConfig\n"
+        "from pathlib import Path\nfrom bench.demos import experts\nfrom bench.rl.trpo import TRPOConfig\n"
         f"experts.train_expert({settings}, out_dir=Path({str(out)!r}), progress=False,"
         " checkpoint_every=0.0)\n"
     )

@@ -45,7 +45,7 @@ def test_plot_out_with_several_suites_is_refused_before_any_figure(tmp_path, ben
 
 
 def test_an_empty_cache_variable_is_unset(tmp_path):
-    code = "from bench.harness import paths; print(paths.CACHE_DIR, paths.EXPERTS_DIR)"
+    code = "from bench import paths; print(paths.CACHE_DIR, paths.EXPERTS_DIR)"
     env = {"IFO_BENCH_CACHE": "", "IFO_BENCH_EXPERTS": "", "PATH": ""}
     printed = subprocess.run(
         [sys.executable, "-c", code], env=env, cwd=tmp_path, capture_output=True, text=True

@@ -12,7 +12,7 @@ from pathlib import Path
 import pytest
 import torch
 
-from bench.harness import kernels
+from bench import kernels
 from bench.harness.suite import load_suite
 
 SUITE = """name: k

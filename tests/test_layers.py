@@ -1,6 +1,7 @@
 """The house's layers import only downward (docs/guide/layout.md): rl knows nothing of
-imitation, imitation nothing of the harness, the harness nothing of analysis, and the
-algorithms and analysis nothing of each other or of the command line."""
+imitation or the simulators, imitation and the simulators nothing of each other, the
+demonstrations nothing of the harness, the harness nothing of analysis, and the algorithms
+and analysis nothing of each other or of the command line."""
 
 import ast
 from pathlib import Path
@@ -14,12 +15,16 @@ RANK = {
     "bench.atomic": 0,
     "bench.reading": 0,
     "bench.fields": 0,
+    "bench.paths": 0,
+    "bench.kernels": 0,
     "bench.rl": 1,
     "bench.imitation": 2,
-    "bench.harness": 3,
-    "bench.analysis": 4,
-    "algorithms": 4,
-    "bench.cli": 5,
+    "bench.envs": 2,
+    "bench.demos": 3,
+    "bench.harness": 4,
+    "bench.analysis": 5,
+    "algorithms": 5,
+    "bench.cli": 6,
 }
 """Each layer may import those of a lower rank, and its own."""
 

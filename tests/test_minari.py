@@ -9,7 +9,8 @@ import pytest
 from minari.data_collector import EpisodeBuffer
 
 from bench import cli
-from bench.harness import demos, minari_io, store
+from bench.demos import minari_io, pools
+from bench.harness import store
 from bench.harness.suite import load_suite
 
 PENDULUM = "InvertedPendulumBulletEnv-v0"
@@ -22,16 +23,16 @@ def exported(module_cache, tmp_path_factory):
     root = tmp_path_factory.mktemp("minari")
     name = minari_io.export(PENDULUM, root, random_return=20.0, expert_return=1000.0)
     mp.setenv("MINARI_DATASETS_PATH", str(root))
-    yield minari.load_dataset(name), demos.ensure_pool(PENDULUM)
+    yield minari.load_dataset(name), pools.ensure_pool(PENDULUM)
     mp.undo()
 
 
 def test_dataset_holds_the_pool(exported):
     dataset, pool_path = exported
-    states = demos.load_demos(pool_path, PENDULUM)
-    with_actions = demos.load_action_demos(pool_path, PENDULUM)
+    states = pools.load_demos(pool_path, PENDULUM)
+    with_actions = pools.load_action_demos(pool_path, PENDULUM)
     episodes = list(dataset.iterate_episodes())
-    assert len(episodes) == states.n_episodes == demos.POOL_SIZE
+    assert len(episodes) == states.n_episodes == pools.POOL_SIZE
     for ep, obs, act, ended in zip(
         episodes, states.observations, with_actions.actions, states.terminated, strict=True
     ):
@@ -106,8 +107,8 @@ def test_import_gives_back_the_exported_demos(exported):
     dataset, pool_path = exported
     imported = minari_io.ensure_pool(dataset.id, PENDULUM)  # by id, from the local root
     for k, seed in ((1, 0), (5, 3)):
-        a = demos.load_action_demos(imported, PENDULUM, k, seed)
-        b = demos.load_action_demos(pool_path, PENDULUM, k, seed)
+        a = pools.load_action_demos(imported, PENDULUM, k, seed)
+        b = pools.load_action_demos(pool_path, PENDULUM, k, seed)
         assert a.demos.terminated == b.demos.terminated
         pairs = zip(a.demos.observations + a.actions, b.demos.observations + b.actions, strict=True)
         for x, y in pairs:
@@ -120,7 +121,7 @@ def test_a_trial_runs_from_an_imported_dataset_without_a_shipped_expert(
     dataset, _ = exported
     folder = str(minari.storage.get_dataset_path(dataset.id))
     monkeypatch.setattr(
-        "bench.harness.paths.EXPERTS_DIR", tmp_path / "no-experts"
+        "bench.paths.EXPERTS_DIR", tmp_path / "no-experts"
     )  # the 1.0 is the dataset
     suite = write_suite(tmp_path, folder, "random, expert, gaifo")
     assert cli.main(["run", str(suite), "--results", str(tmp_path / "res"), "--jobs", "1"]) == 0
@@ -196,7 +197,7 @@ def exported_v5(module_cache, tmp_path_factory):
     root = tmp_path_factory.mktemp("minari-v5")
     name = minari_io.export(PENDULUM_V5, root, random_return=5.0, expert_return=1000.0)
     mp.setenv("MINARI_DATASETS_PATH", str(root))
-    yield root, minari.load_dataset(name), demos.ensure_pool(PENDULUM_V5)
+    yield root, minari.load_dataset(name), pools.ensure_pool(PENDULUM_V5)
     mp.undo()
 
 
@@ -206,8 +207,8 @@ def test_a_mujoco_pool_round_trips_and_minari_normalizes_like_bench(exported_v5)
     scores = minari.get_normalized_score(dataset, np.array([5.0, 502.5, 1000.0]))
     np.testing.assert_allclose(scores, [0.0, 0.5, 1.0])
     imported = minari_io.ensure_pool(dataset.id, PENDULUM_V5)
-    a = demos.load_action_demos(imported, PENDULUM_V5, 3, 1)
-    b = demos.load_action_demos(pool_path, PENDULUM_V5, 3, 1)
+    a = pools.load_action_demos(imported, PENDULUM_V5, 3, 1)
+    b = pools.load_action_demos(pool_path, PENDULUM_V5, 3, 1)
     for x, y in zip(
         a.demos.observations + a.actions, b.demos.observations + b.actions, strict=True
     ):
@@ -242,7 +243,7 @@ def test_minaris_own_mujoco_datasets_load_as_demonstrations(exported_v5, tmp_pat
             ref_max_score=1000.0,
         )
     pool = minari_io.ensure_pool(name, PENDULUM_V5)
-    states = demos.load_demos(pool, PENDULUM_V5, 5, 0)
+    states = pools.load_demos(pool, PENDULUM_V5, 5, 0)
     assert states.n_episodes == 5 and states.obs_dim == 4
     suite = load_suite(write_suite(tmp_path, name, "random, expert, gaifo", PENDULUM_V5))
     assert {s.dataset for s in suite.trials} == {name}
@@ -265,4 +266,4 @@ def test_an_export_cut_off_mid_write_leaves_no_dataset(module_cache, tmp_path, m
     monkeypatch.setattr(minari, "create_dataset_from_buffers", real)
     name = minari_io.export(PENDULUM, tmp_path, 20.0, 1000.0)
     monkeypatch.setenv("MINARI_DATASETS_PATH", str(tmp_path))
-    assert minari.load_dataset(name).total_episodes == demos.POOL_SIZE
+    assert minari.load_dataset(name).total_episodes == pools.POOL_SIZE

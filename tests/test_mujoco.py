@@ -5,8 +5,9 @@ ran on, and `bench video` films it where MuJoCo can render."""
 import numpy as np
 import pytest
 
-from bench.harness import envs, registry, store
-from bench.harness.pixels import PixelConfig
+from bench import envs
+from bench.envs.pixels import PixelConfig
+from bench.harness import registry, store
 from bench.harness.runner import run_suite
 from bench.harness.suite import load_suite
 
@@ -113,7 +114,7 @@ def test_pybullet_is_only_imported_for_a_pybullet_id(tmp_path):
     import sys
 
     code = (
-        "import sys; from bench.harness import envs; envs.check_env_id('Ant-v5');"
+        "import sys; from bench import envs; envs.check_env_id('Ant-v5');"
         " e = envs.make('Ant-v5', 0); e.step(e.action_space.sample());"
         " print('pybullet' in sys.modules, 'pybullet_envs_gymnasium' in sys.modules)"
     )

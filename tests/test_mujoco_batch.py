@@ -1,4 +1,4 @@
-"""The MuJoCo locomotion tasks stepped E at a time (`bench.harness.mujoco_batch`) give what
+"""The MuJoCo locomotion tasks stepped E at a time (`bench.envs.mujoco_batch`) give what
 gymnasium's own envs give stepped one by one, to the bit, through falls, time limits and resets;
 and a trial's collector gives the same batches either way."""
 
@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 import torch
 
-from bench.harness import envs
+from bench import envs
 from bench.rl.networks import GaussianPolicy
 from bench.rl.rollout import VecCollector, evaluate, step_together
 
@@ -73,7 +73,7 @@ def test_a_batched_step_is_the_library_step(env_id):
 
 def test_only_the_plain_tasks_step_together(tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)  # MuJoCo's notes on Ant's model file land here
-    from bench.harness import mujoco_speed
+    from bench.envs import mujoco_speed
 
     plain = envs.make("Hopper-v5", 0)
     assert step_together([plain, envs.make("Hopper-v5", 1)]) is not None
@@ -126,7 +126,7 @@ def test_a_frozen_mean_is_the_policy_forward():
 
 @pytest.mark.parametrize("env_id", ["Walker2d-v5", "HalfCheetah-v5"])
 def test_evaluation_returns_the_same_either_way(env_id, monkeypatch):
-    from bench.harness import mujoco_batch
+    from bench.envs import mujoco_batch
 
     obs_dim, act_dim, _, _ = envs.spaces(env_id)
     weights = np.random.default_rng(0).normal(0, 0.3, (obs_dim, act_dim))

@@ -38,7 +38,7 @@ def test_a_termination_leads_into_the_absorbing_loop_and_a_truncation_does_not()
 
 
 def test_every_termination_reaches_the_buffer_as_an_absorbing_transition(pendulum):
-    from bench.harness import envs
+    from bench import envs
 
     episodes = []
 
@@ -58,8 +58,8 @@ def test_every_termination_reaches_the_buffer_as_an_absorbing_transition(pendulu
 
 
 def test_rewards_come_from_the_current_discriminator(pendulum):
-    from bench.harness import demos as demo_pool
-    from bench.harness import envs
+    from bench import envs
+    from bench.demos import pools as demo_pool
     from bench.harness.trial import demo_pool as pool_of
 
     demos = demo_pool.load_demos(pool_of(pendulum, None), pendulum, 2, 0)
@@ -122,8 +122,8 @@ def test_opolo_rewards_come_from_the_current_discriminator_and_its_dual_term_low
     critic's dual term pushes Q down at the policy's actions: with alpha > 0, Q there ends
     lower than with alpha = 0, on the same data."""
     from algorithms.opolo import OPOLO, OPOLOConfig
-    from bench.harness import demos as demo_pool
-    from bench.harness import envs
+    from bench import envs
+    from bench.demos import pools as demo_pool
     from bench.harness.registry import Task
     from bench.harness.trial import demo_pool as pool_of
 
@@ -160,8 +160,8 @@ def test_opolo_rewards_come_from_the_current_discriminator_and_its_dual_term_low
 def test_device_setting_runs_the_learner_there_and_keeps_a_cpu_policy(name, pendulum):
     """`device` moves the networks and updates; the kept policy is a CPU one either way. On a
     machine without a GPU, asking for one fails at the trial's start, in one line."""
-    from bench.harness import demos as demo_pool
-    from bench.harness import envs
+    from bench import envs
+    from bench.demos import pools as demo_pool
     from bench.harness.registry import Task
     from bench.harness.trial import demo_pool as pool_of
 

@@ -2,9 +2,11 @@ import numpy as np
 import pytest
 import torch
 
-from bench.harness import demos, envs, runner, store, trial
-from bench.harness.experts import load_expert
-from bench.harness.pixels import PixelConfig, VideoBeside
+from bench import envs
+from bench.demos import pools
+from bench.demos.experts import load_expert
+from bench.envs.pixels import PixelConfig, VideoBeside
+from bench.harness import runner, store, trial
 from bench.harness.runner import run_suite
 from bench.harness.suite import load_suite
 from bench.imitation.data import Demos
@@ -69,12 +71,12 @@ PENDULUM = "InvertedPendulumBulletEnv-v0"
 def test_pixel_demos_are_the_experts_video_as_the_imitator_sees_it(tmp_path):
     cfg = PixelConfig(size=16, stack=3)
     expert = load_expert(PENDULUM)
-    video = demos.record(PENDULUM, expert, 2, 20_000, cfg)
-    states = demos.record(PENDULUM, expert, 2, 20_000)
+    video = pools.record(PENDULUM, expert, 2, 20_000, cfg)
+    states = pools.record(PENDULUM, expert, 2, 20_000)
     for key in ("obs", "actions", "rewards", "terminated"):  # the same episodes, filmed
         np.testing.assert_array_equal(video[key], states[key])
-    path = demos.save(tmp_path / "pool.npz", video)
-    shown = demos.load_demos(path, PENDULUM, pixels=cfg)
+    path = pools.save(tmp_path / "pool.npz", video)
+    shown = pools.load_demos(path, PENDULUM, pixels=cfg)
     assert isinstance(shown, Demos) and not hasattr(shown, "actions")
     first = shown.observations[0]
     assert first.dtype == np.uint8 and first.shape == (len(video["obs"]) // 2, 3 * 16 * 16)
@@ -86,17 +88,17 @@ def test_pixel_demos_are_the_experts_video_as_the_imitator_sees_it(tmp_path):
         replay.append(seen)
     env.close()
     np.testing.assert_array_equal(first[:41], np.stack(replay))
-    with pytest.raises(demos.DemoError, match="holds frames of shape"):
-        demos.load_demos(path, PENDULUM, pixels=PixelConfig(size=32))
-    plain = demos.save(tmp_path / "states.npz", states)
-    with pytest.raises(demos.DemoError, match="holds no video"):
-        demos.load_demos(plain, PENDULUM, pixels=cfg)
+    with pytest.raises(pools.DemoError, match="holds frames of shape"):
+        pools.load_demos(path, PENDULUM, pixels=PixelConfig(size=32))
+    plain = pools.save(tmp_path / "states.npz", states)
+    with pytest.raises(pools.DemoError, match="holds no video"):
+        pools.load_demos(plain, PENDULUM, pixels=cfg)
 
 
 def tiny_suite(tmp_path, monkeypatch, observation: str) -> list:
     """The trials of a suite of two TRPO updates per learner on the pendulum, observed so
     (`observation` may carry more env settings: "pixels, frame_size: 32")."""
-    monkeypatch.setattr(demos, "POOL_SIZE", 2)  # filming 25 episodes at 64x64 takes ~15 s
+    monkeypatch.setattr(pools, "POOL_SIZE", 2)  # filming 25 episodes at 64x64 takes ~15 s
     tiny = "{n_envs: 2, steps_per_env: 64}"
     gaifo = "{n_envs: 2, steps_per_env: 64, disc_minibatch: 64}"  # D's draws: one batch at most
     (tmp_path / "s.yaml").write_text(

@@ -9,7 +9,8 @@ import pytest
 import torch
 
 from algorithms.offpolicy import OffPolicyConfig, sac_budget, train_on_reward
-from bench.harness import envs, registry
+from bench import envs
+from bench.harness import registry
 from bench.harness.learners import ImitationTRPOConfig, one_batch, trpo_on_reward
 from bench.harness.trial import plan, run_trial
 from bench.harness.types import TrialSpec

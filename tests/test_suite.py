@@ -8,7 +8,8 @@ from pathlib import Path
 import pytest
 import yaml
 
-from bench.harness import paths, registry
+from bench import paths
+from bench.harness import registry
 from bench.harness.suite import (
     DEMO_POOL_SIZE,
     RunnerSettings,

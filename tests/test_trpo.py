@@ -2,8 +2,8 @@ import numpy as np
 import pytest
 import torch
 
-from bench.harness import envs
-from bench.harness.experts import evaluate_policy
+from bench import envs
+from bench.demos.experts import evaluate_policy
 from bench.rl.networks import DeterministicPolicy, GaussianPolicy, RunningNorm, orthogonal_init
 from bench.rl.rollout import VecCollector
 from bench.rl.trpo import TRPOConfig, gae, train

@@ -10,7 +10,7 @@ from dataclasses import dataclass
 
 import pandas as pd
 
-from bench.harness.envs import PAPER_ENVS
+from bench.envs import PAPER_ENVS
 from bench.harness.registry import REFERENCE_ROLES
 
 PAPER_ALGORITHMS = ("gaifo", "gail", "bco", "tcn", "survival")

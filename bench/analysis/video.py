@@ -19,12 +19,14 @@ from pathlib import Path
 import numpy as np
 from PIL import Image, ImageDraw, ImageFont
 
+from bench import envs
 from bench.analysis import labels
 from bench.analysis.labels import Names, is_reference
 from bench.analysis.normalize import normalize
+from bench.demos import experts
+from bench.envs.pixels import PixelConfig
 from bench.errors import BadInput
-from bench.harness import envs, experts, policies, store
-from bench.harness.pixels import PixelConfig
+from bench.harness import policies, store
 from bench.harness.registry import Policy
 from bench.harness.trial import EVAL_SEED, plan
 from bench.harness.types import TrialSpec

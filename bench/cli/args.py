@@ -71,7 +71,7 @@ def existing_folder(text: str) -> Path:
 
 
 def _not_shipped(path: Path, text: str) -> None:
-    from bench.harness import paths
+    from bench import paths
 
     shipped = paths.inside_shipped(path)
     if shipped is not None:

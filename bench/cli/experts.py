@@ -16,9 +16,8 @@ if TYPE_CHECKING:
 
 
 def _experts_train(args: argparse.Namespace) -> int:
-    from bench import validate
-    from bench.harness import envs, paths
-    from bench.harness.experts import ExpertConfig, ExpertError, train_expert
+    from bench import envs, paths, validate
+    from bench.demos.experts import ExpertConfig, ExpertError, train_expert
 
     envs.check_env_id(args.env_id)
     batch = {"n_envs": args.n_envs, "steps_per_env": args.steps_per_env}
@@ -63,7 +62,7 @@ def _experts_train(args: argparse.Namespace) -> int:
 
 def _trpo_overrides(text: str) -> dict:
     """argparse type: a JSON object of ExpertConfig fields, or an argparse error naming the problem."""
-    from bench.harness.experts import ExpertConfig
+    from bench.demos.experts import ExpertConfig
 
     try:
         value = json.loads(text)
@@ -102,8 +101,8 @@ def experts_cells(experts: list[dict]) -> pd.DataFrame:
 
 def _experts_list(args: argparse.Namespace) -> int:
     from bench.analysis import markdown
-    from bench.harness.experts import list_experts
-    from bench.harness.paths import EXPERTS_DIR
+    from bench.demos.experts import list_experts
+    from bench.paths import EXPERTS_DIR
 
     rows = list_experts()
     if not rows:
@@ -137,7 +136,8 @@ def _list(args: argparse.Namespace) -> int:
 
 def _demos_export(args: argparse.Namespace) -> int:
     from bench.analysis import normalize
-    from bench.harness import minari_io, store
+    from bench.demos import minari_io
+    from bench.harness import store
 
     if not Path(args.references).is_dir():
         raise FileNotFoundError(f"{args.references}: no such results folder")
@@ -161,23 +161,24 @@ def _demos_export(args: argparse.Namespace) -> int:
 
 
 def _demos_show(args: argparse.Namespace) -> int:
-    from bench.harness import demos, envs
+    from bench import envs
+    from bench.demos import pools
 
     envs.check_env_id(args.env_id)
-    if args.demos is not None and args.demos > demos.POOL_SIZE:
-        raise demos.DemoError(
-            f"demos show: --demos {args.demos}: the pool has {demos.POOL_SIZE} episodes"
+    if args.demos is not None and args.demos > pools.POOL_SIZE:
+        raise pools.DemoError(
+            f"demos show: --demos {args.demos}: the pool has {pools.POOL_SIZE} episodes"
         )
-    episodes = demos.pool_episodes(demos.ensure_pool(args.env_id), args.env_id)
+    episodes = pools.pool_episodes(pools.ensure_pool(args.env_id), args.env_id)
     falls = [e for e in episodes if e.terminated]
     print(
-        f"{args.env_id}: {len(episodes)} expert episodes (env seeds {demos.POOL_SEED}-"
-        f"{demos.POOL_SEED + len(episodes) - 1}), {len(falls)} ending in a terminal state"
+        f"{args.env_id}: {len(episodes)} expert episodes (env seeds {pools.POOL_SEED}-"
+        f"{pools.POOL_SEED + len(episodes) - 1}), {len(falls)} ending in a terminal state"
     )
     drawn = {}
     header = f"{'episode':>7s} {'steps':>6s} {'return':>9s}  {'ends':12s}"
     if args.demos is not None:
-        drawn = demos.drawn_by(len(episodes), args.demos, range(args.seeds))
+        drawn = pools.drawn_by(len(episodes), args.demos, range(args.seeds))
         count = f"{args.demos} demo{'s' if args.demos > 1 else ''}"
         header += f"  seeds given it at {count} (of 0-{args.seeds - 1})"
     print(header)

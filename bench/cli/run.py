@@ -9,9 +9,9 @@ import sys
 from collections import Counter
 from pathlib import Path
 
+from bench import paths
 from bench.cli.args import duration, existing_folder, folder, jobs_count, output_folder
 from bench.errors import BadInput
-from bench.harness import paths
 
 
 def _run(args: argparse.Namespace) -> int:
@@ -19,7 +19,7 @@ def _run(args: argparse.Namespace) -> int:
 
     suite = load_suite(args.suite)
     if suite.kernels == "portable" and not args.estimate:
-        from bench.harness import kernels
+        from bench import kernels
 
         if kernels.active() != "portable":
             # The libraries read their kernel switches once, when they first compute: the run
@@ -55,7 +55,7 @@ def _run(args: argparse.Namespace) -> int:
     reuse = [results.parent, paths.RESULTS_DIR, *map(Path, args.reuse or ())]
     if args.estimate:
         return _estimate(specs, results, jobs, reuse)
-    from bench.harness import minari_io
+    from bench.demos import minari_io
 
     for env_id, dataset in sorted({(s.env_id, s.dataset) for s in specs if s.dataset}):
         minari_io.ensure_pool(dataset, env_id)  # read whole now: a broken one fails before any run

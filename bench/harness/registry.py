@@ -48,10 +48,9 @@ from typing import Any, Literal, Protocol
 import gymnasium as gym
 import numpy as np
 
-from bench import validate
+from bench import paths, validate
+from bench.envs.pixels import PixelConfig
 from bench.errors import BadInput
-from bench.harness import paths
-from bench.harness.pixels import PixelConfig
 from bench.rl import sac, td3, trpo
 from bench.rl.resume import Snapshots
 

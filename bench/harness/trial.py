@@ -21,9 +21,11 @@ import gymnasium as gym
 import numpy as np
 import torch
 
-from bench.harness import demos, envs, experts, kernels, minari_io, policies, registry, state_match
+from bench import envs, kernels
+from bench.demos import experts, minari_io, pools
+from bench.envs.pixels import PixelConfig, VideoBeside
+from bench.harness import policies, registry, state_match
 from bench.harness.isolate import Died, die_with_parent, isolated
-from bench.harness.pixels import PixelConfig, VideoBeside
 from bench.harness.snapshots import SnapshotPlan, TrialPaused
 from bench.harness.types import CURVE_POINTS, CurvePoint, TrialResult, TrialSpec
 from bench.rl.rollout import evaluate
@@ -257,7 +259,7 @@ class Plan:
         if kind == "expert":
             return None if spec.dataset else experts.load_expert(spec.env_id)
         pool = demo_pool(spec.env_id, spec.dataset, self.filmed)
-        load = demos.load_demos if kind == "states" else demos.load_action_demos
+        load = pools.load_demos if kind == "states" else pools.load_action_demos
         return load(pool, spec.env_id, spec.n_demos, spec.seed, self.filmed)
 
 
@@ -275,7 +277,7 @@ def demo_pool(env_id: str, dataset: str | None, video: PixelConfig | None = None
     cached after."""
     if dataset:
         return minari_io.ensure_pool(dataset, env_id)
-    return demos.ensure_pool(env_id, video)
+    return pools.ensure_pool(env_id, video)
 
 
 def expert_distance(spec: TrialSpec, visited: list[np.ndarray]) -> float | None:
@@ -285,7 +287,7 @@ def expert_distance(spec: TrialSpec, visited: list[np.ndarray]) -> float | None:
         pool = demo_pool(spec.env_id, spec.dataset)
     except FileNotFoundError:  # ExpertError: a random policy can run where no expert exists
         return None
-    expert_states = demos.pool_states(pool, spec.env_id)
+    expert_states = pools.pool_states(pool, spec.env_id)
     return state_match.state_distance(np.concatenate(visited), expert_states)
 
 

@@ -43,7 +43,7 @@ class TrialSpec:
     expert's pool)."""
     observation: str | None = None
     """What the learner observes: None for the env's state vector, "pixels" for stacked
-    rendered frames (`bench.harness.pixels`), "video-reward" for states while its reward judges
+    rendered frames (`bench.envs.pixels`), "video-reward" for states while its reward judges
     frames; demonstrations are then the expert's video."""
     frame_size: int | None = None
     """Side in pixels of the frames of a pixel or video-reward trial (None: PixelConfig's 64)."""
@@ -51,7 +51,7 @@ class TrialSpec:
     """Learning-curve evaluations during training."""
     kernels: str | None = None
     """"portable" where its floats must be the same on any x86-64 CPU
-    (`bench.harness.kernels`); None: the CPU's own kernels, as every committed record's."""
+    (`bench.kernels`); None: the CPU's own kernels, as every committed record's."""
     code: str | None = None
     """The identity of the code that trains it (`bench.harness.registry.code_identity`): a
     plugin's source hash, so that a changed plugin's trials are new trials; None for the

@@ -18,7 +18,8 @@ from collections import defaultdict
 from collections.abc import Iterable
 from dataclasses import dataclass
 
-from bench.harness import kernels, registry
+from bench import kernels
+from bench.harness import registry
 from bench.harness.trial import plan, run_trial
 from bench.harness.types import TrialResult
 

@@ -18,7 +18,7 @@ class Demos:
     env_id: str
     observations: tuple[np.ndarray, ...]
     """One (T_i + 1, O) float32 array per episode; row T_i is the episode's true final observation.
-    From pixels, (T_i + 1, C*H*W) uint8 flat stacks of frames (`bench.harness.pixels`)."""
+    From pixels, (T_i + 1, C*H*W) uint8 flat stacks of frames (`bench.envs.pixels`)."""
     terminated: tuple[bool, ...] | None = None
     """Per episode: True if it ended in a terminal state (the agent fell), False if a time limit
     cut it. None means no episode terminated."""

@@ -45,7 +45,7 @@ class Batch:
     """Env returns of the episodes that finished during this batch."""
     frames: np.ndarray | None = None
     """(T, E, F) uint8 flat frames of obs, where the envs film themselves beside their state
-    observations (`bench.harness.pixels.VideoBeside`: a reward judged on video); else None."""
+    observations (`bench.envs.pixels.VideoBeside`: a reward judged on video); else None."""
     next_frames: np.ndarray | None = None
     """(T, E, F) frames of next_obs, like frames."""
 
@@ -96,7 +96,7 @@ StepTogether = Callable[
 ]
 """Steps E envs of one task at once, as each one's own `step` would: (E, A) actions -> (E, O)
 observations, (E,) rewards, (E,) terminated, (E,) truncated. An env offers it as its
-`step_together` attribute (`bench.harness.mujoco_batch` gives it to the MuJoCo locomotion
+`step_together` attribute (`bench.envs.mujoco_batch` gives it to the MuJoCo locomotion
 tasks); collectors use it where every env they step offers the same one."""
 
 

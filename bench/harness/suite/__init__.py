@@ -33,7 +33,7 @@ problem raises `SuiteError`, whose message is one line: file, key path, what
 was expected.
 """
 
-from bench.harness.demos import POOL_SIZE as DEMO_POOL_SIZE
+from bench.demos.pools import POOL_SIZE as DEMO_POOL_SIZE
 from bench.harness.suite.expand import expand, seeds_of, select
 from bench.harness.suite.load import load_suite
 from bench.harness.suite.types import AlgorithmEntry, EnvSettings, RunnerSettings, Suite, SuiteError

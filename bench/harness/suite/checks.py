@@ -95,7 +95,7 @@ def check_video_learners(env: EnvSettings, algorithms: tuple) -> None:
 def check_dataset(env: EnvSettings, most_demos: int, algorithms: tuple) -> None:
     """The dataset opens, comes from this env, has enough episodes, and has actions if an
     algorithm needs them."""
-    from bench.harness import minari_io
+    from bench.demos import minari_io
 
     key = f"envs.{env.env_id}.dataset"
     try:

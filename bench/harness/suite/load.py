@@ -12,10 +12,10 @@ from typing import Any
 
 import yaml
 
-from bench import reading, validate
-from bench.harness import paths, registry
-from bench.harness.demos import POOL_SIZE as DEMO_POOL_SIZE
-from bench.harness.envs import EnvError, check_env_id
+from bench import paths, reading, validate
+from bench.demos.pools import POOL_SIZE as DEMO_POOL_SIZE
+from bench.envs import EnvError, check_env_id
+from bench.harness import registry
 from bench.harness.suite import checks, resolve, schema
 from bench.harness.suite.expand import expand
 from bench.harness.suite.types import (

@@ -146,7 +146,7 @@ class SuiteFile(BaseModel):
     curve_points: Count = CURVE_POINTS
     runner: RunnerFile = RunnerFile()
     kernels: Literal["native", "portable"] = "native"
-    """The CPU kernels every trial computes with (`bench.harness.kernels`): "portable" for
+    """The CPU kernels every trial computes with (`bench.kernels`): "portable" for
     numbers any x86-64 CPU reproduces, "native" for each CPU's fastest."""
     settings: Annotated[str, Field(min_length=1)] | None = None
     """A YAML file (relative to the suite's folder) of tuned settings per env, {env id:

@@ -36,7 +36,7 @@ class EnvSettings:
     """A Minari dataset (folder or local id) to take demonstrations from instead of the
     shipped expert's pool."""
     observation: str | None = None
-    """None: learners observe states; "pixels": stacked rendered frames (`bench.harness.pixels`);
+    """None: learners observe states; "pixels": stacked rendered frames (`bench.envs.pixels`);
     "video-reward": learners act on states and imitate the expert's video."""
     frame_size: int | None = None
     """Frame side in pixels with pixels or video-reward (None: 64). 32 costs ~3.5x less per step."""
@@ -84,7 +84,7 @@ class Suite:
     runner: RunnerSettings = RunnerSettings()
     curve_points: int = CURVE_POINTS
     kernels: str = "native"
-    """The CPU kernels its trials compute with (`bench.harness.kernels`)."""
+    """The CPU kernels its trials compute with (`bench.kernels`)."""
     trials: tuple[TrialSpec, ...] = field(default=(), hash=False)
     """Every trial of the suite, each setting resolved, in a fixed order: made once, at load
     (`bench.harness.suite.expand`)."""

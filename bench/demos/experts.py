@@ -1,6 +1,6 @@
 """Experts: train with TRPO, save, load, evaluate.
 
-An expert is two files in `bench.harness.paths.expert_dir(env_id)`:
+An expert is two files in `bench.paths.expert_dir(env_id)`:
   policy.pt  the GaussianPolicy state dict (normalizer statistics included);
              load with torch.load(..., weights_only=True)
   meta.json  env id, sizes, training steps, wall time, seed, package version,
@@ -21,9 +21,8 @@ import torch
 from tqdm import tqdm
 
 import bench
-from bench import atomic
+from bench import atomic, envs, paths
 from bench.errors import BadInput
-from bench.harness import envs, paths
 from bench.rl.networks import DeterministicPolicy, GaussianPolicy, orthogonal_init
 from bench.rl.rollout import evaluate
 from bench.rl.trpo import TRPO, TRPOConfig, train

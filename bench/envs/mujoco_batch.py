@@ -9,7 +9,7 @@ arrays with the same numpy operations in the same order: the same observations, 
 terminations and truncations (`tests/test_mujoco_batch.py` steps each task both ways through
 falls, time limits and resets). Infos are not built: the collectors read none.
 
-`bench.harness.mujoco_speed.speed_up` calls `bind` on an env whose task it sped up (one of
+`bench.envs.mujoco_speed.speed_up` calls `bind` on an env whose task it sped up (one of
 the four, at the options it covers): where the env is exactly `TimeLimit(OrderEnforcing(task))`,
 it gets a `step_together` attribute (the protocol `bench.rl.rollout.StepTogether`); any other
 env keeps stepping one at a time.

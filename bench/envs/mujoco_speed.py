@@ -25,7 +25,7 @@ import gymnasium as gym
 import mujoco
 import numpy as np
 
-from bench.harness import mujoco_batch
+from bench.envs import mujoco_batch
 
 Step = Callable[[Any, np.ndarray], tuple]
 _enabled = True

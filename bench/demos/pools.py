@@ -10,7 +10,7 @@ included, and separately the actions and rewards, with the env id and shapes:
   actions      (sum T_i, A)        kept apart; read only by `load_action_demos`
   rewards      (sum T_i,)
 A pool recorded for visual observations also stores the video, one frame per observation
-(stacks are rebuilt on loading, `bench.harness.pixels.stack_episode`), compressed:
+(stacks are rebuilt on loading, `bench.envs.pixels.stack_episode`), compressed:
   frames       (sum (T_i + 1), c, H, W) uint8
 Pixel pools are caches like any other: they regenerate from the shipped experts.
 """
@@ -24,11 +24,10 @@ from pathlib import Path
 
 import numpy as np
 
-from bench import atomic
+from bench import atomic, envs, kernels, paths
+from bench.demos.experts import load_expert
+from bench.envs.pixels import PixelConfig, camera, newest_frames, stack_episode
 from bench.errors import BadInput
-from bench.harness import envs, kernels, paths
-from bench.harness.experts import load_expert
-from bench.harness.pixels import PixelConfig, camera, newest_frames, stack_episode
 from bench.imitation.data import ActionDemos, Demos
 
 POOL_SIZE = 25

@@ -20,8 +20,8 @@ from collections.abc import Iterator
 import gymnasium as gym
 import numpy as np
 
+from bench.envs.pixels import Frames, PixelConfig
 from bench.errors import BadInput
-from bench.harness.pixels import Frames, PixelConfig
 
 PYBULLET_ENVS = (
     "InvertedPendulumBulletEnv-v0",
@@ -96,7 +96,7 @@ def _register_pybullet() -> bool:
             with quiet_stdout():
                 import pybullet_envs_gymnasium  # noqa: F401  (registers the *BulletEnv ids)
 
-                from bench.harness import bullet_speed
+                from bench.envs import bullet_speed
 
                 bullet_speed.apply()  # same trajectories, ~1.3x the steps per second
         except ImportError:
@@ -121,7 +121,7 @@ def make(env_id: str, seed: int, pixels: PixelConfig | None = None) -> gym.Env:
 
     The first reset happens here (quietly: PyBullet connects to its physics
     server on it), so the env's random stream is fixed by `seed` alone.
-    With `pixels`, observations are stacked rendered frames (`bench.harness.pixels.Frames`),
+    With `pixels`, observations are stacked rendered frames (`bench.envs.pixels.Frames`),
     flattened to (C*H*W,) uint8 like every observation the harness passes around
     (`pixels.shape` restores them), and the simulator state rides along in `info["state"]`.
     """
@@ -138,7 +138,7 @@ def make(env_id: str, seed: int, pixels: PixelConfig | None = None) -> gym.Env:
             )
             env = gym.wrappers.FlattenObservation(Frames(rendered, pixels))
         if on_mujoco:
-            from bench.harness import mujoco_speed  # imports mujoco: only where it is used
+            from bench.envs import mujoco_speed  # imports mujoco: only where it is used
 
             mujoco_speed.speed_up(env)  # the same trajectories, less Python per step
         env.reset(seed=seed)

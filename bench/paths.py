@@ -5,7 +5,7 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
-REPO_ROOT = Path(__file__).resolve().parents[2]
+REPO_ROOT = Path(__file__).resolve().parents[1]
 # An empty variable is unset, not the working folder.
 EXPERTS_DIR = Path(os.environ.get("IFO_BENCH_EXPERTS") or REPO_ROOT / "results" / "experts")
 """Shipped experts: <EXPERTS_DIR>/<env_id>/policy.pt and meta.json."""

@@ -19,8 +19,9 @@ from pathlib import Path
 import gymnasium as gym
 import numpy as np
 
+from bench import envs
+from bench.demos import pools
 from bench.errors import BadInput
-from bench.harness import demos, envs
 
 NAMESPACE = "ifo-bench"
 DATASET_NAME = "expert-v0"
@@ -54,9 +55,9 @@ def episode_buffers(pool: dict[str, np.ndarray]) -> list:
     from minari.data_collector import EpisodeBuffer
 
     lengths = pool["obs_lengths"]
-    observations = demos.split_episodes(pool["obs"], lengths)
-    actions = demos.split_episodes(pool["actions"], lengths - 1)
-    rewards = demos.split_episodes(pool["rewards"], lengths - 1)
+    observations = pools.split_episodes(pool["obs"], lengths)
+    actions = pools.split_episodes(pool["actions"], lengths - 1)
+    rewards = pools.split_episodes(pool["rewards"], lengths - 1)
     buffers = []
     for i, (obs, act, rew) in enumerate(zip(observations, actions, rewards, strict=True)):
         ended_by = np.zeros(len(act), dtype=bool)
@@ -65,7 +66,7 @@ def episode_buffers(pool: dict[str, np.ndarray]) -> list:
         buffers.append(
             EpisodeBuffer(
                 id=i,
-                seed=demos.POOL_SEED + i,
+                seed=pools.POOL_SEED + i,
                 observations=list(obs),
                 actions=list(act),
                 rewards=[float(r) for r in rew],
@@ -86,7 +87,7 @@ def export(env_id: str, root: str | Path, random_return: float, expert_return: f
     name = dataset_id(env_id)
     if (root / name).exists():
         raise DatasetError(f"{root / name} already exists; remove it or export to another folder")
-    pool = dict(np.load(demos.ensure_pool(env_id), allow_pickle=False))
+    pool = dict(np.load(pools.ensure_pool(env_id), allow_pickle=False))
     env = gym.make(env_id)
     root.mkdir(parents=True, exist_ok=True)
     # Written whole beside its place, then renamed into it: a run killed mid-export leaves a
@@ -186,11 +187,11 @@ def has_actions(dataset) -> bool:
 
 
 def to_pool(dataset, env_id: str) -> dict[str, np.ndarray]:
-    """The dataset's episodes as a demonstration pool, laid out as `demos.record` writes one
+    """The dataset's episodes as a demonstration pool, laid out as `pools.record` writes one
     (actions NaN where the dataset has none)."""
     read = episodes(dataset)
     obs = [np.asarray(ep.observations, np.float32) for ep in read]
-    return demos.pool_arrays(
+    return pools.pool_arrays(
         env_id,
         obs,
         [
@@ -233,12 +234,12 @@ def content_digest(dataset) -> str:
 def ensure_pool(source: str, env_id: str) -> Path:
     """Path of the dataset's episodes converted to a demonstration pool (cached: converted once
     per dataset content, so a dataset rewritten in place is converted again)."""
-    from bench.harness import paths
+    from bench import paths
 
     dataset = open_dataset(source)
     digest = content_digest(dataset)[:12]
-    path = paths.CACHE_DIR / "datasets" / f"{env_id}-{digest}-{demos.FORMAT}.npz"
+    path = paths.CACHE_DIR / "datasets" / f"{env_id}-{digest}-{pools.FORMAT}.npz"
     if not path.exists():
         check_env(dataset, source, env_id)
-        demos.save(path, to_pool(dataset, env_id))
+        pools.save(path, to_pool(dataset, env_id))
     return path

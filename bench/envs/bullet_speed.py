@@ -1,7 +1,7 @@
 """Faster stepping of the PyBullet envs, with every trajectory unchanged to the bit.
 
 Profiled on HalfCheetah under GAIfO, the physics is under a third of a step; the rest is the
-envs' Python. Two patches, applied when the envs are registered (`bench.harness.envs`), take the
+envs' Python. Two patches, applied when the envs are registered (`bench.envs`), take the
 largest parts of it away:
 
 - `BulletClient.__getattr__` wraps the pybullet function in a new `functools.partial` on every
