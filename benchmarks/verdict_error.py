@@ -7,7 +7,7 @@ two halves of 5 seeds, every way there is (126 distinct splits) or `--splits` of
 halves are draws of the same distribution (same code, same settings, seeds apart), as a
 newcomer's `make run` and the committed reference are. Each split is judged as `bench
 compare` judges a row, by the bootstrap CI of the IQM difference excluding 0 (the old rule)
-and by the permutation test at p < 0.05 (`stats.permutation_p`, the rule now). Prints the
+and by the permutation test at p < 0.05 (`agreement.permutation_p`, the rule now). Prints the
 share of splits called "differs" over all cells, per folder, and the worst cells: a rule
 that holds its 5% is at or under 0.05 in every cell.
 """
@@ -19,7 +19,7 @@ import itertools
 
 import numpy as np
 
-from bench.analysis import stats
+from bench.analysis import agreement
 from bench.analysis.normalize import normalize
 from bench.harness import store
 
@@ -43,9 +43,9 @@ def main() -> None:
             old_calls, new_calls = [], []
             for i, half in enumerate(halves):
                 a, b = scores[list(half)], np.delete(scores, list(half))
-                d = stats.iqm_difference(a, b, args.reps, i)
+                d = agreement.iqm_difference(a, b, args.reps, i)
                 old_calls.append(d["diff_lo"] > 0 or d["diff_hi"] < 0)
-                new_calls.append(stats.permutation_p(a, b, i) < stats.ALPHA)
+                new_calls.append(agreement.permutation_p(a, b, i) < agreement.ALPHA)
             old.append(np.mean(old_calls))
             new.append(np.mean(new_calls))
             worst = max(worst, (new[-1], f"{key[0]} {key[1]} {key[2]} demos"))

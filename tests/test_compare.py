@@ -6,7 +6,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from bench.analysis import stats
+from bench.analysis import agreement
 from bench.harness import store
 
 REFERENCE = Path(__file__).parents[1] / "results" / "quick"
@@ -33,9 +33,9 @@ def rewrite(folder: Path, change) -> None:
 
 def test_iqm_difference_of_identical_and_shifted_samples():
     scores = np.array([0.2, 0.5, 0.9, 1.0, 1.0, 0.7, 0.95, 1.0])
-    same = stats.iqm_difference(scores, scores.copy(), reps=500)
+    same = agreement.iqm_difference(scores, scores.copy(), reps=500)
     assert same["diff"] == 0.0 and same["diff_lo"] <= 0.0 <= same["diff_hi"]
-    shifted = stats.iqm_difference(scores - 0.5, scores, reps=500)
+    shifted = agreement.iqm_difference(scores - 0.5, scores, reps=500)
     assert shifted["diff"] == pytest.approx(-0.5) and shifted["diff_hi"] < 0
 
 

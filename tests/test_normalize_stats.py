@@ -8,7 +8,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from bench.analysis import stats
+from bench.analysis import agreement, stats
 from bench.analysis.normalize import NormalizationError, normalize, reference_returns
 
 from frames import described
@@ -259,12 +259,12 @@ def test_the_verdict_says_differs_of_at_most_5_percent_of_splits_of_one_sample()
     calls = []
     for half in itertools.combinations(range(10), 5):
         a, b = scores[list(half)], np.delete(scores, list(half))
-        calls.append(stats.verdict_of(a, b, stats.permutation_p(a, b)) == "differs")
-    assert 0 < np.mean(calls) <= stats.ALPHA
-    separated = stats.permutation_p(np.zeros(5), np.ones(5))
+        calls.append(agreement.verdict_of(a, b, agreement.permutation_p(a, b)) == "differs")
+    assert 0 < np.mean(calls) <= agreement.ALPHA
+    separated = agreement.permutation_p(np.zeros(5), np.ones(5))
     assert (
-        separated < stats.ALPHA
-        and stats.verdict_of(np.zeros(5), np.ones(5), separated) == "differs"
+        separated < agreement.ALPHA
+        and agreement.verdict_of(np.zeros(5), np.ones(5), separated) == "differs"
     )
-    assert stats.verdict_of(scores, scores[::-1].copy(), 1.0) == "identical"
-    assert stats.permutation_p(np.ones(3), np.zeros(3)) == pytest.approx(0.1)  # 3 seeds: never
+    assert agreement.verdict_of(scores, scores[::-1].copy(), 1.0) == "identical"
+    assert agreement.permutation_p(np.ones(3), np.zeros(3)) == pytest.approx(0.1)  # 3 seeds: never

@@ -8,7 +8,7 @@ import pytest
 from matplotlib.container import BarContainer
 from matplotlib.patches import Rectangle
 
-from bench.analysis import labels, markdown, plot, stats
+from bench.analysis import curves, labels, markdown, plot, stats
 
 from frames import described
 
@@ -156,11 +156,11 @@ def test_iqm_learning_curves(tmp_path):
         for seed in SEEDS
         for step in (0, 500, 1000)
     ]
-    curves = pd.DataFrame(
+    learning = pd.DataFrame(
         rows, columns=["env_id", "algorithm", "n_demos", "seed", "env_steps", "normalized"]
     )
-    names = labels.Names.of(described(curves))
-    fig = plot.draw_iqm_curves(stats.iqm_curves(curves, reps=20), "Learning curves", names)
+    names = labels.Names.of(described(learning))
+    fig = plot.draw_iqm_curves(curves.iqm_curves(learning, reps=20), "Learning curves", names)
     assert len(fig.axes) == len(ENVS)
     assert [len(ax.lines) for ax in fig.axes] == [2 + 2] * len(ENVS)  # two algorithms, 0 and 1
     assert plot.save(fig, tmp_path / "curves")[0].is_file()

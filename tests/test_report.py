@@ -9,9 +9,10 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
+from rliable import metrics
 
 from bench import cli
-from bench.analysis import comparisons, labels, markdown, report, stats
+from bench.analysis import bootstrap, comparisons, curves, labels, markdown, report
 from bench.harness import store
 from bench.harness.types import CurvePoint, TrialResult, TrialSpec
 
@@ -240,10 +241,10 @@ def test_fast_metrics_are_rliables_to_the_bit():
             x, y = (rng.normal(size=(n, tasks)) for n in (runs_x, runs_y))
         if case % 3 == 2:  # columns that are equal
             y = x.copy()
-        assert stats.probability_of_improvement_over(x, y) == (
-            stats.metrics.probability_of_improvement(x, y)
+        assert bootstrap.probability_of_improvement_over(x, y) == (
+            metrics.probability_of_improvement(x, y)
         ), (x, y)
-        assert stats.aggregate_iqm(x) == stats.metrics.aggregate_iqm(x), x
+        assert bootstrap.aggregate_iqm(x) == metrics.aggregate_iqm(x), x
 
 
 def test_iqm_curves_are_rliable_iqm_per_step():
@@ -252,14 +253,14 @@ def test_iqm_curves_are_rliable_iqm_per_step():
         for seed, values in enumerate([[0, 1], [2, 3], [4, 5], [6, 7]])
         for step, value in zip((0, 100), values, strict=True)
     ]
-    curves = pd.DataFrame(
+    learning = pd.DataFrame(
         rows, columns=["env_id", "algorithm", "n_demos", "seed", "env_steps", "normalized"]
     )
-    frame = stats.iqm_curves(curves, reps=REPS)
+    frame = curves.iqm_curves(learning, reps=REPS)
     assert frame["env_steps"].tolist() == [0, 100]
     assert frame["iqm"].tolist() == [
-        stats.metrics.aggregate_iqm(np.array([0.0, 2, 4, 6])),
-        stats.metrics.aggregate_iqm(np.array([1.0, 3, 5, 7])),
+        metrics.aggregate_iqm(np.array([0.0, 2, 4, 6])),
+        metrics.aggregate_iqm(np.array([1.0, 3, 5, 7])),
     ]
     assert frame["iqm"].tolist() == [3.0, 4.0]
     assert (frame["lo"] <= frame["iqm"]).all() and (frame["iqm"] <= frame["hi"]).all()
@@ -273,23 +274,23 @@ def test_steps_to_a_level_are_the_first_evaluation_at_or_above_it_per_seed():
         for seed, curve in values.items()
         for step, value in zip((0, 100, 200), curve, strict=True)
     ]
-    curves = pd.DataFrame(
+    learning = pd.DataFrame(
         rows, columns=["env_id", "algorithm", "n_demos", "seed", "env_steps", "normalized"]
     )
-    steps = stats.steps_to(curves, 0.8)
+    steps = curves.steps_to(learning, 0.8)
     assert steps["steps"].tolist() == [100, 0, np.inf]  # reached once counts, even if lost
-    cell = stats.time_to(steps).iloc[0]
+    cell = curves.time_to(steps).iloc[0]
     assert (cell["seeds"], cell["median"], cell["worst"], cell["short"]) == (3, 100, np.inf, 1)
-    assert stats.time_to(steps[steps["seed"] < 2]).iloc[0]["worst"] == 100
+    assert curves.time_to(steps[steps["seed"] < 2]).iloc[0]["worst"] == 100
 
 
 def test_iqm_curves_put_seeds_on_shared_steps():
     rows = [("E", "a", 1, 0, s, s / 100) for s in (0, 50, 100)]
     rows += [("E", "a", 1, 1, s, s / 100) for s in (10, 60, 90)]
-    curves = pd.DataFrame(
+    learning = pd.DataFrame(
         rows, columns=["env_id", "algorithm", "n_demos", "seed", "env_steps", "normalized"]
     )
-    frame = stats.iqm_curves(curves, reps=20)
+    frame = curves.iqm_curves(learning, reps=20)
     assert frame["env_steps"].tolist() == [10, 50, 60, 90]  # inside both seeds' range
     np.testing.assert_allclose(frame["iqm"], [0.1, 0.5, 0.6, 0.9])
 

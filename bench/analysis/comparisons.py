@@ -17,7 +17,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import pandas as pd
 
-from bench.analysis import labels, stats
+from bench.analysis import bootstrap, labels, stats
 from bench.analysis.labels import Names, is_reference
 from bench.analysis.normalize import EXPERT, RANDOM, demo_free
 
@@ -100,7 +100,7 @@ def control_of(name: str, role: str, names: Collection[str], shown: Names) -> st
 
 
 def between(df: pd.DataFrame, a: str, b: str) -> tuple[pd.DataFrame, pd.DataFrame]:
-    """Two algorithms of one normalized frame, as `stats.compare` takes two folders' trials:
+    """Two algorithms of one normalized frame, as `agreement.compare` takes two folders' trials:
     `a`'s cells against `b`'s, env by env and count by count (b's rows then named as a's). A
     demonstration-free side (a control) stands beside every count of the other."""
     mine, theirs = df[df["algorithm"] == a], df[df["algorithm"] == b]
@@ -126,7 +126,7 @@ def oracle_fractions(scores: dict[str, np.ndarray], shown: Names, reps: int = 20
         if shown[name].role == "ceiling" or ceiling is None:
             continue
         ratio = stats.iqm_ratio(scores[name], scores[ceiling], reps=reps, seed=i)
-        worst = float(np.min(scores[name]) / stats.iqm(np.ravel(scores[ceiling])))
+        worst = float(np.min(scores[name]) / bootstrap.iqm(np.ravel(scores[ceiling])))
         rows.append({"algorithm": name, "other": ceiling, **ratio, "worst": worst})
     return pd.DataFrame(rows, columns=["algorithm", "other", "estimate", "lo", "hi", "worst"])
 

@@ -22,7 +22,7 @@ from typing import NamedTuple
 
 import pandas as pd
 
-from bench.analysis import comparisons, labels, markdown, plot, stats
+from bench.analysis import comparisons, labels, markdown, plot
 from bench.analysis.comparisons import (
     PER_ENV_COLUMNS,
     POOLED,
@@ -30,6 +30,7 @@ from bench.analysis.comparisons import (
     TARGET,
     demo_counts,
 )
+from bench.analysis.curves import iqm_curves, steps_to, time_to
 from bench.analysis.labels import Names, is_reference
 from bench.analysis.normalize import demo_free, normalize, reference_returns
 from bench.harness import store
@@ -114,9 +115,9 @@ def write_report(
         figure_section = "No learning algorithm was run: only the random and expert references."
 
     raw_curves = normalized_curves(results_dir, trials)
-    reach = stats.time_to(stats.steps_to(raw_curves, REACH))
+    reach = time_to(steps_to(raw_curves, REACH))
     try:
-        curves: pd.DataFrame | str = stats.iqm_curves(raw_curves, reps=reps)
+        curves: pd.DataFrame | str = iqm_curves(raw_curves, reps=reps)
     except ValueError as e:  # several curves per seed and step: records of more than one run
         curves = str(e)
     per_count = [

@@ -66,7 +66,7 @@ def _report(args: argparse.Namespace) -> int:
 
 
 def _compare(args: argparse.Namespace) -> int:
-    from bench.analysis import comparisons, labels, markdown, normalize, stats
+    from bench.analysis import agreement, comparisons, labels, markdown, normalize
     from bench.errors import BadInput
 
     if (args.reference is None) == (args.between is None):
@@ -77,14 +77,14 @@ def _compare(args: argparse.Namespace) -> int:
         df = normalize.normalize(trials)
         run_df, ref_df = comparisons.between(df, a, b)
         names = labels.Names.of(df)
-        comparison = stats.compare(run_df, ref_df, reps=args.reps)
+        comparison = agreement.compare(run_df, ref_df, reps=args.reps)
         print(markdown.compare_table(comparison, names.label(a), names.label(b), names))
         return 0
     run, ref = (_one_suite(args.run), _one_suite(args.reference))
     run_df, ref_df = normalize.normalized_alike(run, ref)
-    comparison = stats.compare(run_df, ref_df, reps=args.reps)
+    comparison = agreement.compare(run_df, ref_df, reps=args.reps)
     names = labels.Names.of(run_df, ref_df)
-    unlike = stats.unlike(run_df, ref_df)
+    unlike = agreement.unlike(run_df, ref_df)
     print(markdown.compare_table(comparison, str(args.run), str(args.reference), names, unlike))
     return 0
 

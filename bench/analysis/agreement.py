@@ -1,0 +1,146 @@
+"""`bench compare`: two folders' (or two algorithms') scores, cell by cell.
+
+A cell is one env, algorithm, demonstration count and setting (`COMPARE_KEYS`); in each, the
+seeds of one side are set against the seeds of the other: each side's IQM with a 95%
+bootstrap CI, the CI of their difference, and a rank test by permutation whose p gives the
+verdict (identical, differs or agrees). Pure functions over normalized frames; the table is
+`bench.analysis.tables.compare_table`'s.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+
+import numpy as np
+import pandas as pd
+import scipy.stats
+
+from bench.analysis.bootstrap import iqm
+from bench.errors import BadInput
+
+
+class ComparisonError(BadInput, ValueError):
+    """Two results folders that cannot be compared; the message is one line."""
+
+
+COMPARE_KEYS = ["env_id", "algorithm", "n_demos", "setting"]
+"""Cells compared: seeds of one setting (`TrialSpec.setting_id`: budget, settings, evaluation)
+against seeds of the same one, never two budgets or two configs row by row."""
+COMPARE_COLUMNS = [
+    *COMPARE_KEYS,
+    *("run_seeds", "run_iqm", "run_lo", "run_hi"),
+    *("ref_seeds", "ref_iqm", "ref_lo", "ref_hi"),
+    *("diff", "diff_lo", "diff_hi", "p", "verdict"),
+]
+ALPHA = 0.05
+"""A row differs when the permutation test's p is below this: under the same distribution,
+at most this share of rows differ, whatever the seed counts and however bimodal the scores."""
+EXACT_SPLITS = 20_000
+"""Up to this many ways to split the pooled seeds, the test tries every one (5 against 5:
+252); beyond, this many random ones (seeded)."""
+
+
+def unlike(run: pd.DataFrame, ref: pd.DataFrame) -> tuple[int, int]:
+    """How many cells (`COMPARE_KEYS`) of the run and of the reference have no like in the
+    other: another budget, demonstration count or settings."""
+    a = set(run.groupby(COMPARE_KEYS).groups)
+    b = set(ref.groupby(COMPARE_KEYS).groups)
+    return len(a - b), len(b - a)
+
+
+def _why_unlike(run: pd.DataFrame, ref: pd.DataFrame) -> str:
+    """ ": budgets 2048 (run) and 4096 (reference)", where the folders' budgets differ."""
+    budgets = [sorted(set(frame["budget"])) for frame in (run, ref)]
+    if budgets[0] == budgets[1]:
+        return " (their settings differ)"
+    return f": budgets {budgets[0]} (run) and {budgets[1]} (reference)"
+
+
+def permutation_p(run: np.ndarray, ref: np.ndarray, seed: int = 0) -> float:
+    """Two-sided p of a rank test of run against ref (Mann-Whitney's, by permutation): the
+    share of the ways to split the pooled scores into samples of these sizes whose mean ranks
+    lie at least as far apart (every split up to EXACT_SPLITS, else that many random ones);
+    ties share their rank. Exact at the seed counts a benchmark has, where a bootstrap CI of
+    the IQM difference is too narrow; and on ranks, since an IQM of 5 seeds (the mean of the
+    middle 3) ties across most splits of bimodal scores and would leave the test no power."""
+    run, ref = np.asarray(run, dtype=float), np.asarray(ref, dtype=float)
+    ranks, n = scipy.stats.rankdata(np.concatenate([run, ref])), len(run)
+    if math.comb(len(ranks), n) <= EXACT_SPLITS:
+        picks = np.array(list(itertools.combinations(range(len(ranks)), n)))
+    else:
+        rng = np.random.default_rng(seed)
+        picks = np.argsort(rng.random((EXACT_SPLITS, len(ranks))), axis=1)[:, :n]
+    first = ranks[picks].sum(axis=1)
+    # mean rank of one side minus the other's, from the first side's rank sum
+    total, m = ranks.sum(), len(ranks) - n
+    split = np.abs(first / n - (total - first) / m)
+    observed = abs(ranks[:n].mean() - ranks[n:].mean())
+    return float(np.mean(split >= observed - 1e-9))
+
+
+def verdict_of(run: np.ndarray, ref: np.ndarray, p: float) -> str:
+    """ "identical" where both samples hold the same scores (a rerun computed to the bit),
+    "differs" where p < ALPHA, else "agrees"."""
+    if len(run) == len(ref) and np.array_equal(np.sort(run), np.sort(ref)):
+        return "identical"
+    return "differs" if p < ALPHA else "agrees"
+
+
+def iqm_difference(
+    run: np.ndarray, ref: np.ndarray, reps: int = 2000, seed: int = 0
+) -> dict[str, float]:
+    """IQMs of two independent samples of scores with 95% percentile-bootstrap CIs, and of
+    their difference run - ref (each sample resampled on its own, `reps` times)."""
+    rng = np.random.default_rng(seed)
+    run, ref = np.asarray(run, dtype=float), np.asarray(ref, dtype=float)
+    boot_run = iqm(run[rng.integers(len(run), size=(reps, len(run)))])
+    boot_ref = iqm(ref[rng.integers(len(ref), size=(reps, len(ref)))])
+    ci = lambda boot: np.percentile(boot, [2.5, 97.5])  # noqa: E731
+    (run_lo, run_hi), (ref_lo, ref_hi) = ci(boot_run), ci(boot_ref)
+    diff_lo, diff_hi = ci(boot_run - boot_ref)
+    return {
+        "run_iqm": float(iqm(run)),
+        "run_lo": float(run_lo),
+        "run_hi": float(run_hi),
+        "ref_iqm": float(iqm(ref)),
+        "ref_lo": float(ref_lo),
+        "ref_hi": float(ref_hi),
+        "diff": float(iqm(run) - iqm(ref)),
+        "diff_lo": float(diff_lo),
+        "diff_hi": float(diff_hi),
+    }
+
+
+def compare(run: pd.DataFrame, ref: pd.DataFrame, reps: int = 2000, seed: int = 0) -> pd.DataFrame:
+    """Per env, algorithm and demo count present in both normalized frames: each one's IQM over
+    seeds with a 95% CI, the difference's CI, the permutation test's p (`permutation_p`) and
+    a verdict (`verdict_of`). Columns: COMPARE_COLUMNS. Raises ComparisonError when no cell is
+    in both."""
+    run_cells = {k: g["normalized"].dropna().to_numpy() for k, g in run.groupby(COMPARE_KEYS)}
+    ref_cells = {k: g["normalized"].dropna().to_numpy() for k, g in ref.groupby(COMPARE_KEYS)}
+    shared = [
+        k for k in sorted(run_cells) if k in ref_cells and len(run_cells[k]) and len(ref_cells[k])
+    ]
+    if not shared:
+        raise ComparisonError(
+            "the two folders share no (env, algorithm, demo count) run with the same settings"
+            f" with scores{_why_unlike(run, ref)}"
+        )
+    rows = []
+    for i, key in enumerate(shared):
+        a, b = run_cells[key], ref_cells[key]
+        d = iqm_difference(a, b, reps, seed + i)
+        p = permutation_p(a, b, seed + i)
+        verdict = verdict_of(a, b, p)
+        rows.append(
+            {
+                **dict(zip(COMPARE_KEYS, key, strict=True)),
+                "run_seeds": len(a),
+                "ref_seeds": len(b),
+                **d,
+                "p": p,
+                "verdict": verdict,
+            }
+        )
+    return pd.DataFrame(rows, columns=COMPARE_COLUMNS)
