@@ -14,7 +14,6 @@ from bench.harness.suite import (
     DEMO_POOL_SIZE,
     RunnerSettings,
     SuiteError,
-    expand,
     load_suite,
     select,
 )
@@ -94,12 +93,15 @@ def test_loads_with_defaults(tmp_path):
     assert suite.seeds == (0, 1, 2)
     assert suite.eval_episodes == 10
     assert suite.runner == RunnerSettings(jobs=-1, backend="loky")
-    assert [(a.name, a.hyperparams, a.uses_demos) for a in suite.algorithms] == [
-        ("random", {}, False),
-        ("expert", {}, False),
-        ("ifo", {"lr": 0.01, "steps": 10, "normalize": True}, True),  # defaults resolved
-        ("with-actions", {}, True),
+    assert [(a.name, a.uses_demos) for a in suite.algorithms] == [
+        ("random", False),
+        ("expert", False),
+        ("ifo", True),
+        ("with-actions", True),
     ]
+    resolved = {s.algorithm: s.hyperparams for s in suite.trials}
+    assert resolved["ifo"] == {"lr": 0.01, "steps": 10, "normalize": True}  # defaults resolved
+    assert resolved["with-actions"] == {}
 
 
 def test_explicit_name_seeds_and_runner(tmp_path):
@@ -134,18 +136,18 @@ seeds: 2
     registry.register("ifo-less-entry-is-fine-too", config=NoConfig, inputs="states")(_train)
     suite = load_suite(write(tmp_path, text))
     assert suite.envs[0].budget == 100_000
-    assert suite.algorithms[1].hyperparams == {"lr": 1e-3, "steps": 5, "normalize": True}
-    assert suite.algorithms[2].hyperparams == {}
+    resolved = {s.algorithm: s.hyperparams for s in suite.trials}
+    assert resolved["ifo"] == {"lr": 1e-3, "steps": 5, "normalize": True}
+    assert resolved["ifo-less-entry-is-fine-too"] == {}
 
 
 def test_expand_counts_order_and_references(tmp_path):
     suite = load_suite(write(tmp_path, base()))
-    specs = expand(suite)
+    specs = list(suite.trials)  # expanded once, at load
     # per env: 2 references x 3 seeds + 2 demo counts x 2 learners x 3 seeds
     assert len(specs) == 2 * (2 * 3 + 2 * 2 * 3)
     assert len({s.trial_id for s in specs}) == len(specs)
-    assert expand(suite) == specs  # deterministic
-    assert list(suite.trials) == specs  # resolved once, at load
+    assert list(load_suite(write(tmp_path, base())).trials) == specs  # deterministic
 
     first = [(s.env_id, s.algorithm, s.n_demos, s.seed) for s in specs[:9]]
     assert first == [
@@ -418,7 +420,7 @@ def test_labelled_variants_of_one_algorithm(tmp_path):
             {"algorithm": "ifo", "label": "ifo-unnormalized", "normalize": False},
         ]
     }
-    specs = expand(load_suite(write(tmp_path, raw)))
+    specs = list(load_suite(write(tmp_path, raw)).trials)
     shown = {s.shown for s in specs}
     assert shown == {"ifo", "ifo-unnormalized"}
     variant = next(s for s in specs if s.label == "ifo-unnormalized")
@@ -445,7 +447,8 @@ def test_a_list_sweeps_and_labels_say_the_values(tmp_path, monkeypatch):
             {"algorithm": "net", "label": "grid", "lr": [0.001, 0.01], "hidden": [[8], [16]]},
         ]
     }
-    entries = load_suite(write(tmp_path, raw)).algorithms
+    suite = load_suite(write(tmp_path, raw))
+    entries = suite.algorithms
     assert [e.shown for e in entries] == [
         "net",
         "grid-lr=0.001-hidden=[8]",
@@ -453,8 +456,9 @@ def test_a_list_sweeps_and_labels_say_the_values(tmp_path, monkeypatch):
         "grid-lr=0.01-hidden=[8]",
         "grid-lr=0.01-hidden=[16]",
     ]
-    assert entries[0].hyperparams["hidden"] == [32, 32]
-    assert entries[4].hyperparams == {"hidden": [16], "lr": 0.01}
+    resolved = {s.shown: s.hyperparams for s in suite.trials}
+    assert resolved["net"]["hidden"] == [32, 32]
+    assert resolved["grid-lr=0.01-hidden=[16]"] == {"hidden": [16], "lr": 0.01}
 
 
 @pytest.mark.parametrize(
@@ -489,7 +493,7 @@ def test_bad_variants_are_one_line_errors(tmp_path, entries, message):
 
 def test_an_entry_may_run_fewer_seeds(tmp_path):
     raw = base() | {"algorithms": ["random", {"algorithm": "ifo", "seeds": 2}, "with-actions"]}
-    specs = expand(load_suite(write(tmp_path, raw)))
+    specs = list(load_suite(write(tmp_path, raw)).trials)
     seeds = {a: sorted({s.seed for s in specs if s.algorithm == a}) for a in ("ifo", "random")}
     assert seeds == {"ifo": [0, 1], "random": [0, 1, 2]}
     bad = base() | {"algorithms": [{"algorithm": "ifo", "seeds": 0}]}
@@ -500,9 +504,9 @@ def test_an_entry_may_run_fewer_seeds(tmp_path):
 def test_an_env_may_run_other_seeds_per_algorithm(tmp_path):
     entries = ["random", {"algorithm": "ifo", "seeds": 2}, "with-actions"]
     raw = base() | {"name": "t", "algorithms": entries}
-    plain = {s.trial_id for s in expand(load_suite(write(tmp_path, raw)))}
+    plain = {s.trial_id for s in list(load_suite(write(tmp_path, raw)).trials)}
     raw["envs"][HOPPER]["seeds"] = {"ifo": 1, "random": [4, 7]}
-    specs = expand(load_suite(write(tmp_path, raw, "s.yaml")))
+    specs = list(load_suite(write(tmp_path, raw, "s.yaml")).trials)
     seeds = {
         (s.env_id, s.algorithm): sorted(
             {t.seed for t in specs if (t.env_id, t.algorithm) == (s.env_id, s.algorithm)}
@@ -514,7 +518,7 @@ def test_an_env_may_run_other_seeds_per_algorithm(tmp_path):
     assert seeds[PENDULUM, "ifo"] == [0, 1] and seeds[PENDULUM, "random"] == [0, 1, 2]
     assert {s.trial_id for s in specs if s.seed in (0, 1)} <= plain  # the same trials keep ids
     raw["envs"][HOPPER]["seeds"] = {"ifo": 0}  # not on this env
-    specs = expand(load_suite(write(tmp_path, raw, "n.yaml")))
+    specs = list(load_suite(write(tmp_path, raw, "n.yaml")).trials)
     assert {s.env_id for s in specs if s.algorithm == "ifo"} == {PENDULUM}
     raw["envs"][HOPPER]["seeds"] = {"ifo": -1}
     with pytest.raises(SuiteError, match=r"envs\.HopperBulletEnv-v0\.seeds\.ifo: expected"):
@@ -528,15 +532,15 @@ def test_an_env_may_run_other_seeds_per_algorithm(tmp_path):
 
 def test_a_pixel_env_marks_its_trials_and_keeps_state_trial_ids(tmp_path):
     raw = base() | {"name": "s", "algorithms": ["random", "expert"]}
-    states = expand(load_suite(write(tmp_path, raw)))
+    states = list(load_suite(write(tmp_path, raw)).trials)
     _set(raw, ("envs", PENDULUM, "observation"), "pixels")  # the expert acts on states there too
-    pixels = expand(load_suite(write(tmp_path, raw, "p.yaml")))
+    pixels = list(load_suite(write(tmp_path, raw, "p.yaml")).trials)
     seen = {(s.env_id, s.observation) for s in pixels}
     assert seen == {(PENDULUM, "pixels"), (HOPPER, None)}
     state_ids = {s.trial_id for s in states}
     assert all((s.trial_id in state_ids) == (s.env_id == HOPPER) for s in pixels)
     _set(raw, ("envs", PENDULUM, "frame_size"), 32)  # another kind of trial: other ids
-    small = expand(load_suite(write(tmp_path, raw, "q.yaml")))
+    small = list(load_suite(write(tmp_path, raw, "q.yaml")).trials)
     assert {s.frame_size for s in small if s.env_id == PENDULUM} == {32}
     assert not {s.trial_id for s in small if s.env_id == PENDULUM} & {s.trial_id for s in pixels}
 
@@ -550,9 +554,9 @@ def _learners_with_an_own_variant(**own) -> dict:
 
 def test_an_envs_trpo_settings_reach_every_trpo_learner_there_and_no_other(tmp_path):
     raw = _learners_with_an_own_variant(n_envs=4)
-    plain = {s.trial_id for s in expand(load_suite(write(tmp_path, raw)))}
+    plain = {s.trial_id for s in list(load_suite(write(tmp_path, raw)).trials)}
     _set(raw, ("envs", PENDULUM, "trpo"), {"n_envs": 16, "gamma": 0.995})
-    specs = expand(load_suite(write(tmp_path, raw, "t.yaml")))
+    specs = list(load_suite(write(tmp_path, raw, "t.yaml")).trials)
     for spec in specs:
         changed = spec.env_id == PENDULUM and spec.algorithm == "trpo-ifo"
         assert (spec.trial_id not in plain) == changed  # everything else keeps its id
@@ -568,10 +572,10 @@ def test_an_envs_trpo_settings_reach_every_trpo_learner_there_and_no_other(tmp_p
 
 def test_an_envs_hyperparams_reach_every_algorithm_that_has_them_there_and_no_other(tmp_path):
     raw = _learners_with_an_own_variant(disc_lr=4e-4)
-    plain = {s.trial_id for s in expand(load_suite(write(tmp_path, raw)))}
+    plain = {s.trial_id for s in list(load_suite(write(tmp_path, raw)).trials)}
     _set(raw, ("envs", PENDULUM, "trpo"), {"n_envs": 16})
     _set(raw, ("envs", PENDULUM, "hyperparams"), {"disc_lr": 0.01, "steps": 3})
-    specs = expand(load_suite(write(tmp_path, raw, "h.yaml")))
+    specs = list(load_suite(write(tmp_path, raw, "h.yaml")).trials)
     for spec in specs:
         changed = spec.env_id == PENDULUM and spec.algorithm in ("ifo", "trpo-ifo")
         assert (spec.trial_id not in plain) == changed  # everything else keeps its id
@@ -587,25 +591,27 @@ def test_an_envs_hyperparams_reach_every_algorithm_that_has_them_there_and_no_ot
 
 def test_a_trials_id_is_what_decides_it_not_the_suite_or_label_that_asks_for_it(tmp_path):
     raw = base() | {"name": "one"}
-    one = expand(load_suite(write(tmp_path, raw)))
+    one = list(load_suite(write(tmp_path, raw)).trials)
     mine = {"algorithm": "ifo", "label": "mine", "lr": 0.01}
     renamed = raw | {"name": "two", "algorithms": ["random", "expert", mine, "with-actions"]}
-    two = expand(load_suite(write(tmp_path, renamed, "two.yaml")))
+    two = list(load_suite(write(tmp_path, renamed, "two.yaml")).trials)
     assert [s.trial_id for s in one] == [s.trial_id for s in two]
     assert {s.suite for s in two} == {"two"} and "mine" in {s.label for s in two}
     raw["algorithms"][2] = {"ifo": {"lr": 0.02}}
-    changed = expand(load_suite(write(tmp_path, raw, "three.yaml")))
+    changed = list(load_suite(write(tmp_path, raw, "three.yaml")).trials)
     ids = {s.trial_id for s in one}
     assert [s.trial_id in ids for s in changed] == [s.algorithm != "ifo" for s in changed]
 
 
 def test_curve_points_sets_the_curves_resolution(tmp_path):
     raw = base() | {"name": "s"}
-    plain = expand(load_suite(write(tmp_path, raw)))
+    plain = list(load_suite(write(tmp_path, raw)).trials)
     assert {s.curve_points for s in plain} == {CURVE_POINTS}
-    spelled = expand(load_suite(write(tmp_path, raw | {"curve_points": CURVE_POINTS}, "d.yaml")))
+    spelled = list(
+        load_suite(write(tmp_path, raw | {"curve_points": CURVE_POINTS}, "d.yaml")).trials
+    )
     assert [s.trial_id for s in spelled] == [s.trial_id for s in plain]
-    fewer = expand(load_suite(write(tmp_path, raw | {"curve_points": 3}, "f.yaml")))
+    fewer = list(load_suite(write(tmp_path, raw | {"curve_points": 3}, "f.yaml")).trials)
     assert {s.curve_points for s in fewer} == {3}
     assert not {s.trial_id for s in fewer} & {s.trial_id for s in plain}  # other records
 

@@ -166,8 +166,9 @@ class Algorithm:
     def uses_actions(self) -> bool:
         return self.inputs == "actions"
 
-    def make_config(self, overrides: dict[str, Any]) -> Any:
-        """config(**overrides); raises ValueError naming any unknown key."""
+    def check_overrides(self, overrides: dict[str, Any]) -> None:
+        """Raise ValueError naming any key that is not a field of the config, SettingError
+        naming a value not of its field's type; builds nothing."""
         known = {f.name for f in dataclasses.fields(self.config)}
         unknown = sorted(set(overrides) - known)
         if unknown:
@@ -176,6 +177,10 @@ class Algorithm:
                 f" (known: {', '.join(sorted(known)) or 'none'})"
             )
         validate.check_types(self.config, overrides)
+
+    def make_config(self, overrides: dict[str, Any]) -> Any:
+        """config(**overrides), checked first (`check_overrides`)."""
+        self.check_overrides(overrides)
         return self.config(**overrides)
 
 
@@ -328,6 +333,14 @@ def get(name: str) -> Algorithm:
             f"unknown algorithm {name!r} (registered: {', '.join(sorted(_ALGORITHMS))})"
         )
     return _ALGORITHMS[name]
+
+
+def config_of(spec: Any) -> Any:
+    """A trial spec's config: the one its suite built (`TrialSpec.config`), or, for a spec
+    read from a record, built from its hyperparams."""
+    if spec.config is not None:
+        return spec.config
+    return get(spec.algorithm).make_config(spec.hyperparams)
 
 
 def describe(name: str) -> tuple[Role, str | None, str]:

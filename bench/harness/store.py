@@ -114,7 +114,9 @@ def write(results_dir: str | Path, result: TrialResult) -> Path:
     folder = trials_dir(results_dir)
     folder.mkdir(parents=True, exist_ok=True)
     _remove_stale_tmp(folder)
-    record = dataclasses.asdict(dataclasses.replace(result, policy=None))
+    spec = dataclasses.replace(result.spec, config=None)
+    record = dataclasses.asdict(dataclasses.replace(result, spec=spec, policy=None))
+    del record["spec"]["config"]  # `hyperparams` says it
     del record["policy"]  # a file of its own (bench.harness.policies)
     del record["stored_in"]  # where the reader found it
     if not record["resumed_at"]:  # trials that ran in one go: records as they always were
@@ -169,6 +171,8 @@ def _check_types(raw: Any) -> None:
         raise ValueError("not a record: no spec")
     for key, kind in SPEC_TYPES.items():
         check(f"spec.{key}", raw["spec"].get(key), kind)
+    if "config" in raw["spec"]:
+        raise ValueError("spec.config is no part of a record (its hyperparams are)")
     for key, kind in RECORD_TYPES.items():
         check(key, raw.get(key), kind)
     for i, r in enumerate(raw["returns"]):

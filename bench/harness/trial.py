@@ -8,6 +8,7 @@ file: the driver (`bench.harness.runner`) writes records and policies as results
 
 from __future__ import annotations
 
+import copy
 import time
 import traceback
 from collections.abc import Iterator
@@ -328,7 +329,8 @@ def run_trial(
         else:
             eval_envs += [trial.make_env(eval_seed + i) for i in range(min(10, spec.eval_episodes))]
             task = trial.task(tally)
-            config = algo.make_config(spec.hyperparams)
+            # a copy: trials that share a spec's config in one process must not share its state
+            config = copy.deepcopy(registry.config_of(spec))
             policy = algo.train(task, inputs, spec.budget, spec.seed, logger, config)
             if tally.steps > spec.budget:  # it caught the budget's error and went on
                 raise BudgetExceeded(

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import hashlib
 import json
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from typing import Any
 
 CURVE_POINTS = 10
@@ -56,12 +56,17 @@ class TrialSpec:
     """The identity of the code that trains it (`bench.harness.registry.code_identity`): a
     plugin's source hash, so that a changed plugin's trials are new trials; None for the
     built-ins."""
+    config: Any = field(default=None, compare=False, repr=False)
+    """The algorithm's config dataclass, built from `hyperparams` when the suite was loaded
+    and carried to the trial, so that it is built once (None for a spec read from a record:
+    `config_of` builds it). What it holds is `hyperparams`: no part of the trial's identity,
+    never written into a record."""
 
     def decisive(self) -> dict[str, Any]:
         """Every field but `suite` and `label`, which only say who asked for the trial and what
         it is called there; `OPTIONAL_FIELDS` only where they are set."""
-        spec = asdict(self)
-        del spec["suite"], spec["label"]
+        spec = asdict(replace(self, config=None))
+        del spec["suite"], spec["label"], spec["config"]
         for optional in OPTIONAL_FIELDS:
             if spec[optional] is None:
                 del spec[optional]

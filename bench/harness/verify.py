@@ -47,7 +47,7 @@ def verify(record: TrialResult, steps: int = PREFIX_STEPS) -> Verdict:
     algorithm = registry.get(record.spec.algorithm)
     floor = 0
     if algorithm.min_budget is not None:  # BCO's first phase takes its pre-demonstration steps
-        floor = algorithm.min_budget(algorithm.make_config(record.spec.hyperparams))
+        floor = algorithm.min_budget(registry.config_of(record.spec))
     steps = steps if steps > floor else floor + steps
     whole = not logged or record.spec.budget <= steps
     spec = record.spec if whole else dataclasses.replace(record.spec, budget=steps)

@@ -34,7 +34,7 @@ was expected.
 """
 
 from bench.demos.pools import POOL_SIZE as DEMO_POOL_SIZE
-from bench.harness.suite.expand import expand, seeds_of, select
+from bench.harness.suite.expand import seeds_of, select
 from bench.harness.suite.load import load_suite
 from bench.harness.suite.types import AlgorithmEntry, EnvSettings, RunnerSettings, Suite, SuiteError
 
@@ -45,7 +45,6 @@ __all__ = [
     "RunnerSettings",
     "Suite",
     "SuiteError",
-    "expand",
     "load_suite",
     "seeds_of",
     "select",

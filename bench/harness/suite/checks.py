@@ -47,7 +47,7 @@ def check_budgets(trials: list[TrialSpec]) -> None:
         if algo.min_budget is None or case in asked:
             continue  # seeds and demo counts of one setting need the same
         asked.add(case)
-        need = algo.min_budget(algo.make_config(spec.hyperparams))
+        need = algo.min_budget(registry.config_of(spec))
         if spec.budget < need:
             raise Invalid(
                 f"envs.{spec.env_id}.budget",
@@ -149,14 +149,33 @@ def check_known(hyperparams: dict, key: str) -> None:
             raise Invalid(f"{key}.{name}", "no registered algorithm has this setting")
 
 
-def check_env_settings(env: EnvSettings, algorithms: tuple[AlgorithmEntry, ...]) -> None:
-    """Each algorithm's config still builds with the env's settings under its own."""
-    for entry in algorithms:
-        try:
-            resolve.on_env(env, entry)
-        except (TypeError, ValueError) as e:
-            where = f"envs.{env.env_id}.{'hyperparams' if env.hyperparams else 'trpo'}"
-            raise Invalid(where, f"{entry.shown}: {one_line(str(e))}") from None
+def build_configs(
+    envs: tuple[EnvSettings, ...], algorithms: tuple[AlgorithmEntry, ...]
+) -> dict[tuple[str, str], Any]:
+    """Each entry's config on each env, built once (`resolve.config_on`), by (env id, shown
+    name); a config that does not build is Invalid at the entry's key where its own overrides
+    are at fault, else at the env's settings."""
+    built = {}
+    for env in envs:
+        for entry in algorithms:
+            try:
+                built[env.env_id, entry.shown] = resolve.config_on(env, entry)
+            except (TypeError, ValueError) as e:
+                raise _blame(env, entry, e) from None
+    return built
+
+
+def _blame(env: EnvSettings, entry: AlgorithmEntry, error: Exception) -> Invalid:
+    """Where a config that does not build is wrong: the entry's overrides if they fail alone,
+    else the env's settings under them."""
+    try:
+        registry.get(entry.name).make_config(entry.overrides)
+    except (TypeError, ValueError) as own:
+        if isinstance(own, validate.SettingError):
+            return at_setting(entry.key, own)
+        return Invalid(entry.key, one_line(str(own)))
+    where = f"envs.{env.env_id}.{'hyperparams' if env.hyperparams else 'trpo'}"
+    return Invalid(where, f"{entry.shown}: {one_line(str(error))}")
 
 
 def check_plain(values: dict, key: str) -> None:
@@ -170,14 +189,15 @@ def check_plain(values: dict, key: str) -> None:
             ) from None
 
 
-def check_hyperparams(algo: registry.Algorithm, overrides: dict, key: str) -> Any:
-    """The algorithm's config built with `overrides`, or Invalid at `key`."""
+def check_overrides(algo: registry.Algorithm, overrides: dict, key: str) -> None:
+    """An entry's overrides are plain values, settings of its config and of their types, or
+    Invalid at `key`; whether they build is asked per env (`build_configs`)."""
     check_plain(overrides, key)
     try:
-        return algo.make_config(overrides)
+        algo.check_overrides(overrides)
     except validate.SettingError as e:
         raise at_setting(key, e) from None
-    except (TypeError, ValueError) as e:
+    except ValueError as e:
         raise Invalid(key, one_line(str(e))) from None
 
 

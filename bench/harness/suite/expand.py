@@ -4,6 +4,7 @@ the env's settings, the entry's overrides) so that a trial's id hashes all of it
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 from bench.harness import registry
 from bench.harness.suite import resolve
@@ -11,18 +12,21 @@ from bench.harness.suite.types import AlgorithmEntry, EnvSettings, Suite, SuiteE
 from bench.harness.types import TrialSpec
 
 
-def expand(suite: Suite) -> list[TrialSpec]:
-    """All trials of a suite, in a fixed order.
+def expand(suite: Suite, configs: dict[tuple[str, str], Any]) -> list[TrialSpec]:
+    """All trials of a suite, in a fixed order, each carrying its algorithm's config on its
+    env (`configs`, by env id and shown name: `checks.build_configs`).
 
     Per env: the algorithms that take no demonstrations (once per seed, with
     n_demos=0), then demo count x algorithm x seed for the others.
     """
-    return [spec for env in suite.envs for spec in env_trials(suite, env)]
+    return [spec for env in suite.envs for spec in env_trials(suite, env, configs)]
 
 
-def env_trials(suite: Suite, env: EnvSettings) -> list[TrialSpec]:
-    """One env's trials; each algorithm's config on it resolved once."""
-    config = {a.shown: resolve.on_env(env, a) for a in suite.algorithms}
+def env_trials(
+    suite: Suite, env: EnvSettings, configs: dict[tuple[str, str], Any]
+) -> list[TrialSpec]:
+    """One env's trials; the seeds and demo counts of an entry share its one config."""
+    resolved = {a.shown: resolve.as_json(configs[env.env_id, a.shown]) for a in suite.algorithms}
 
     def spec(algo: AlgorithmEntry, n_demos: int, seed: int) -> TrialSpec:
         return TrialSpec(
@@ -33,7 +37,7 @@ def env_trials(suite: Suite, env: EnvSettings) -> list[TrialSpec]:
             seed=seed,
             budget=env.budget,
             eval_episodes=suite.eval_episodes,
-            hyperparams=dict(config[algo.shown]),
+            hyperparams=dict(resolved[algo.shown]),
             label=algo.label,
             dataset=env.dataset,
             observation=env.observation,
@@ -41,6 +45,7 @@ def env_trials(suite: Suite, env: EnvSettings) -> list[TrialSpec]:
             curve_points=suite.curve_points,
             code=registry.get(algo.name).code,
             kernels=None if suite.kernels == "native" else suite.kernels,
+            config=configs[env.env_id, algo.shown],
         )
 
     no_demos = [a for a in suite.algorithms if not a.uses_demos]

@@ -174,8 +174,6 @@ def _suite(raw: Any, path: Path) -> Suite:
             raise checks.Invalid(f"envs.{env.env_id}", checks.one_line(str(e))) from None
         if env.hyperparams:
             checks.check_env_hyperparams(env, algorithms, file.envs[env.env_id].hyperparams)
-        if env.trpo or env.hyperparams:
-            checks.check_env_settings(env, algorithms)
         if env.observation is not None:
             checks.check_video_learners(env, algorithms)
         if env.dataset is not None:  # its demonstrator is the 1.0: no shipped expert needed
@@ -208,7 +206,7 @@ def _suite(raw: Any, path: Path) -> Suite:
         file.kernels,
     )
     checks.check_size(suite)
-    trials = expand(suite)
+    trials = expand(suite, checks.build_configs(envs, algorithms))
     checks.check_budgets(trials)
     return dataclasses.replace(suite, trials=tuple(trials))
 
@@ -302,8 +300,7 @@ def _algorithms(raw: Any) -> tuple[AlgorithmEntry, ...]:
         except registry.RegistryError as e:
             raise checks.Invalid(key, checks.one_line(str(e))) from None
         for shown, variant in _variants(algo, label, overrides, key):
-            config = checks.check_hyperparams(algo, variant, f"{key}.{name}")
-            resolved = resolve.as_json(config)
+            checks.check_overrides(algo, variant, f"{key}.{name}")
             if shown in entries:
                 # Records and plots group by what is shown, so two entries would silently merge.
                 raise checks.Invalid(
@@ -314,7 +311,7 @@ def _algorithms(raw: Any) -> tuple[AlgorithmEntry, ...]:
             uses_demos = algo.inputs in ("states", "actions")
             label_or_none = None if shown == name else shown
             entries[shown] = AlgorithmEntry(
-                name, resolved, variant, uses_demos, label_or_none, seeds
+                name, variant, uses_demos, label_or_none, seeds, key=f"{key}.{name}"
             )
     return tuple(entries.values())
 

@@ -1,5 +1,5 @@
-"""An algorithm's settings on one env, resolved once: its config's defaults, the env's settings
-that apply to it, and the suite entry's own overrides, as the plain JSON a trial's id hashes."""
+"""An algorithm's config on one env, built once: its config's defaults, the env's settings that
+apply to it, and the suite entry's own overrides; and as the plain JSON a trial's id hashes."""
 
 from __future__ import annotations
 
@@ -27,16 +27,20 @@ def as_json(config: Any) -> dict[str, Any]:
     return {k: v for k, v in full.items() if k not in unset}
 
 
-def on_env(env: EnvSettings, entry: AlgorithmEntry) -> dict[str, Any]:
-    """The entry's resolved config on this env: the env's settings that apply to it under the
-    entry's overrides (the env's TRPO settings if it is a TRPO learner, then the env's
-    hyperparams that its config has). A fresh dict: specs outlive the suite. Raises what the
-    config raises (TypeError, ValueError) where the env's settings do not fit it."""
+def settings_on(env: EnvSettings, entry: AlgorithmEntry) -> dict[str, Any]:
+    """What the entry's config is built from on this env: the env's settings that apply to it
+    (the env's TRPO settings if it is a TRPO learner, then the env's hyperparams that its
+    config has) under the entry's own overrides."""
     algorithm = registry.get(entry.name)
     known = fields_of(algorithm.config)
     from_env = {k: v for k, v in env.hyperparams.items() if k in known}
     if env.trpo and issubclass(algorithm.config, TRPOConfig):
         from_env = {**env.trpo, **from_env}
-    if not from_env:
-        return dict(entry.hyperparams)
-    return as_json(algorithm.make_config({**from_env, **entry.overrides}))
+    return {**from_env, **entry.overrides}
+
+
+def config_on(env: EnvSettings, entry: AlgorithmEntry) -> Any:
+    """The entry's config on this env, built (the one construction a trial's config has: the
+    spec carries it). Raises what the config raises (SettingError, TypeError, ValueError)
+    where the settings do not fit it."""
+    return registry.get(entry.name).make_config(settings_on(env, entry))

@@ -57,16 +57,17 @@ class EnvSettings:
 @dataclass(frozen=True)
 class AlgorithmEntry:
     name: str
-    hyperparams: dict[str, Any] = field(default_factory=dict, hash=False)
-    """The algorithm's full config: defaults with the suite's overrides applied, validated."""
     overrides: dict[str, Any] = field(default_factory=dict, hash=False)
-    """Just the suite's overrides: an env's `trpo` and `hyperparams` settings go under them."""
+    """The suite's settings for it (a sweep's point included), checked against its config's
+    fields and types: an env's `trpo` and `hyperparams` settings go under them."""
     uses_demos: bool = True
     """False for algorithms whose inputs are "none" or "expert": run once, with n_demos=0."""
     label: str | None = None
     """A variant's name in records, figures and reports (None: the algorithm's name)."""
     seeds: tuple[int, ...] | None = None
     """This entry's seeds (None: the suite's), e.g. fewer for costly controls."""
+    key: str = field(default="", compare=False)
+    """Where it stands in the suite file (`algorithms[2].gaifo`), for errors found later."""
 
     @property
     def shown(self) -> str:
