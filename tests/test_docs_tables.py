@@ -1,5 +1,5 @@
 """The results tables quoted in the README and the docs agree with the committed report they
-are copied from (`markdown.env_by_count`'s table in a suite's `report/report.md`), so a redraw
+are copied from (`sections.env_by_count`'s table in a suite's `report/report.md`), so a redraw
 cannot leave them stale."""
 
 from __future__ import annotations

@@ -8,7 +8,7 @@ import pytest
 from matplotlib.container import BarContainer
 from matplotlib.patches import Rectangle
 
-from bench.analysis import curves, labels, markdown, plot, stats
+from bench.analysis import curves, labels, plot, stats, tables
 
 from frames import described
 
@@ -133,7 +133,7 @@ def test_order_and_colors_are_fixed():
 
 
 def test_summary_table(table_rows):
-    table = markdown.summary_table(described(frame()))
+    table = tables.summary_table(described(frame()))
     rows = table_rows(table)
     assert rows[0] == ["env", "algorithm", "no demos", "1 demo", "10 demos"]
     assert ["InvertedPendulum", "GAIfO", "", "0.15 ± 0.10", "0.60 ± 0.10"] in rows

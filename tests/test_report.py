@@ -12,7 +12,7 @@ import pytest
 from rliable import metrics
 
 from bench import cli
-from bench.analysis import bootstrap, comparisons, curves, labels, markdown, report
+from bench.analysis import bootstrap, comparisons, curves, findings, labels, report, sections
 from bench.harness import store
 from bench.harness.types import CurvePoint, TrialResult, TrialSpec
 
@@ -444,14 +444,14 @@ def test_at_a_glance_says_when_its_counts_pool_different_envs(table_rows):
     def aggregates(envs_per_count: dict[int, int]) -> pd.DataFrame:
         return pd.DataFrame(
             [[n, "gaifo", 5, envs, "iqm", 0.5, 0.4, 0.6] for n, envs in envs_per_count.items()],
-            columns=report.AGGREGATE_COLUMNS,
+            columns=findings.AGGREGATE_COLUMNS,
         )
 
-    empty = pd.DataFrame(columns=report.IMPROVEMENT_COLUMNS)
-    partial = markdown.at_a_glance(aggregates({1: 2, 5: 6}), empty, names(["gaifo"]))
+    empty = pd.DataFrame(columns=findings.IMPROVEMENT_COLUMNS)
+    partial = sections.at_a_glance(aggregates({1: 2, 5: 6}), empty, names(["gaifo"]))
     assert ["envs pooled", "2", "6"] in table_rows(partial)
     assert "read down a column, not across a row" in partial
-    whole = markdown.at_a_glance(aggregates({1: 6, 5: 6}), empty, names(["gaifo"]))
+    whole = sections.at_a_glance(aggregates({1: 6, 5: 6}), empty, names(["gaifo"]))
     assert ["envs pooled", "6", "6"] in table_rows(whole) and "across a row" not in whole
 
 
@@ -484,7 +484,7 @@ def test_per_env_across_counts_marks_a_count_without_runs(table_rows):
         [25, PENDULUM, "iqm", "bco", None, 3, 0.25, 0.2, 0.3],
         [25, "pooled", "iqm", "bco", None, 3, 0.25, 0.2, 0.3],
     ]
-    per_env = pd.DataFrame(rows, columns=report.PER_ENV_COLUMNS)
-    header, *body = table_rows(markdown.env_by_count(per_env, names(["gaifo", "gail", "bco"])))
+    per_env = pd.DataFrame(rows, columns=comparisons.PER_ENV_COLUMNS)
+    header, *body = table_rows(sections.env_by_count(per_env, names(["gaifo", "gail", "bco"])))
     assert header == ["at 1 / 25 demos", labels.env_label(PENDULUM)]
     assert body == [["GAIfO", "0.50 / 0.90"], ["BCO", "- / 0.25"]]

@@ -196,7 +196,7 @@ def test_the_evaluate_page_runs_as_written(tmp_path):
 
 
 def test_a_report_says_which_learner_has_no_floor_to_be_read_against():
-    from bench.analysis import markdown
+    from bench.analysis import sections
     from bench.analysis.labels import Names, Shown
 
     names = Names(
@@ -206,6 +206,6 @@ def test_a_report_says_which_learner_has_no_floor_to_be_read_against():
             "survival": Shown("Survival", "floor", "trpo", "survival"),
         }
     )
-    text = markdown.how_to_read(list(names), 100, names, focus="own-loop")
+    text = sections.how_to_read(list(names), 100, names, focus="own-loop")
     assert "P(own-loop > X)" in text
     assert "**own-loop** has no optimizer family" in text and "**GAIfO** has" not in text

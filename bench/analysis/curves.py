@@ -1,4 +1,4 @@
-"""Learning-curve statistics from normalized curves (`report.normalized_curves`: env_id,
+"""Learning-curve statistics from normalized curves (`findings.normalized_curves`: env_id,
 algorithm, n_demos, seed, env_steps, normalized, a row per evaluation): the IQM over seeds at
 each evaluation with its 95% CI (`iqm_curves`), and the env steps each seed took to reach a
 level (`steps_to`, summed up per cell by `time_to`).

@@ -1,5 +1,5 @@
 """Figures, and the per-trial CSV beside them, from the tidy normalized frame (store.load ->
-normalize); the markdown table of the same means is `bench.analysis.markdown.summary_table`.
+normalize); the markdown table of the same means is `bench.analysis.tables.summary_table`.
 
 Nothing here computes a statistic beyond grouping: means and standard
 deviations over seeds are seaborn's or pandas'. Figures are built on

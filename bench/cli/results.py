@@ -14,7 +14,7 @@ if TYPE_CHECKING:
 
 
 def _plot(args: argparse.Namespace) -> int:
-    from bench.analysis import labels, markdown, normalize, plot
+    from bench.analysis import labels, normalize, plot, tables
     from bench.harness import store
 
     dirs = store.suite_dirs(args.results_dir)
@@ -44,13 +44,13 @@ def _plot(args: argparse.Namespace) -> int:
             print(f"{d}: no learner's records, only references: no figure", file=sys.stderr)
         summary = out.with_name("summary.csv")
         plot.write_summary_csv(df, summary)
-        print(f"## {d}\n\n{markdown.summary_table(df)}\n")
+        print(f"## {d}\n\n{tables.summary_table(df)}\n")
         print("wrote " + ", ".join(str(p) for p in [*written, summary]) + "\n")
     return 0
 
 
 def _report(args: argparse.Namespace) -> int:
-    from bench.analysis import report
+    from bench.analysis import report, tables
     from bench.analysis.comparisons import TARGET
     from bench.harness import store
 
@@ -59,14 +59,14 @@ def _report(args: argparse.Namespace) -> int:
         for d in store.suite_dirs(args.results_dir):
             focus = _algorithm_named(args.focus, store.load(d), d)
     for written in report.write_reports(args.results_dir, args.out, args.reps, focus):
-        tables = report.tables(written.aggregates, written.improvements, written.names)
-        print(f"## {written.path}\n\n{tables}")
+        shown = tables.report_tables(written.aggregates, written.improvements, written.names)
+        print(f"## {written.path}\n\n{shown}")
         print(f"wrote {written.path} (figures and aggregates.csv beside it)\n")
     return 0
 
 
 def _compare(args: argparse.Namespace) -> int:
-    from bench.analysis import agreement, comparisons, labels, markdown, normalize
+    from bench.analysis import agreement, comparisons, labels, normalize, tables
     from bench.errors import BadInput
 
     if (args.reference is None) == (args.between is None):
@@ -78,14 +78,14 @@ def _compare(args: argparse.Namespace) -> int:
         run_df, ref_df = comparisons.between(df, a, b)
         names = labels.Names.of(df)
         comparison = agreement.compare(run_df, ref_df, reps=args.reps)
-        print(markdown.compare_table(comparison, names.label(a), names.label(b), names))
+        print(tables.compare_table(comparison, names.label(a), names.label(b), names))
         return 0
     run, ref = (_one_suite(args.run), _one_suite(args.reference))
     run_df, ref_df = normalize.normalized_alike(run, ref)
     comparison = agreement.compare(run_df, ref_df, reps=args.reps)
     names = labels.Names.of(run_df, ref_df)
     unlike = agreement.unlike(run_df, ref_df)
-    print(markdown.compare_table(comparison, str(args.run), str(args.reference), names, unlike))
+    print(tables.compare_table(comparison, str(args.run), str(args.reference), names, unlike))
     return 0
 
 
