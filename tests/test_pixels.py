@@ -123,10 +123,11 @@ def test_a_tiny_pixel_suite_runs_end_to_end(tmp_path, monkeypatch):
         assert records[learner].env_steps == 256 and len(records[learner].logs["kl"]) == 2
     assert {"disc_loss", "reward_absorbing"} <= set(records["gaifo"].logs)
     # a pixel learner is filmed from what it saw, beside the full view: two squares per panel
-    from bench.analysis.video import compose, panels, rollout
+    from bench.analysis.video import compose, panels
+    from bench.harness.film import film_episode
 
     chosen = panels(tmp_path / "res", algorithms=["gaifo"])
-    films = [rollout(p, PENDULUM, 48, 5, 100_000) for p in chosen]
+    films = [film_episode(p.policy, PENDULUM, 48, 5, 100_000, p.spec) for p in chosen]
     assert [f[0].shape for f in films] == [(48, 48, 3), (48, 96, 3)]  # expert, GAIfO
     frames = compose([p.title for p in chosen], films)
     assert len(frames) == 6 and frames[0].shape[1] == 48 + 96

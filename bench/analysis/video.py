@@ -1,14 +1,15 @@
 """`bench video`: the expert and learned policies side by side, from the same start state.
 
 A bar says how far a learner got; a video says how: whether GAIfO's hopper hops like the
-expert or leans forward like the survival control. Each panel is one policy, rolled out
+expert or leans forward like the survival control. Each panel is one policy, filmed
 deterministically in its own env reset with the same seed (so every panel starts from the
-same state), filmed in colour, and titled with the normalized return its record scored. A
-panel whose episode ended holds its last frame, dimmed. A pixel learner acts on the frames
-it was trained on; its panel shows them, enlarged, beside the full view.
+same state; `bench.harness.film` steps the envs), and titled with the normalized return its
+record scored. A panel whose episode ended holds its last frame, dimmed. A pixel learner acts
+on the frames it was trained on; its panel shows them, enlarged, beside the full view.
 
-Computing (which records, their rollouts) is kept apart from drawing (`compose`), and that
-from writing (`write`, imageio: .gif, or .mp4 where imageio-ffmpeg is installed).
+Choosing (which records, titled how: `panels`) is kept apart from filming (the harness's),
+from drawing (`compose`) and from writing (`write`, imageio: .gif, or .mp4 where
+imageio-ffmpeg is installed).
 """
 
 from __future__ import annotations
@@ -19,18 +20,16 @@ from pathlib import Path
 import numpy as np
 from PIL import Image, ImageDraw, ImageFont
 
-from bench import envs
 from bench.analysis import labels
 from bench.analysis.labels import Names, is_reference
 from bench.analysis.normalize import normalize
 from bench.demos import experts
-from bench.envs.pixels import PixelConfig
 from bench.errors import BadInput
 from bench.harness import policies, store
+from bench.harness.film import film_episode
 from bench.harness.registry import Policy
-from bench.harness.trial import EVAL_SEED, plan
+from bench.harness.trial import EVAL_SEED
 from bench.harness.types import TrialSpec
-from bench.rl.networks import observation
 
 TITLE_HEIGHT = 22
 """Pixels above each panel for its title."""
@@ -43,8 +42,12 @@ class VideoError(BadInput, ValueError):
 
 @dataclass(frozen=True)
 class Panel:
+    """One policy of a video, as chosen and titled (`panels`), before it is filmed."""
+
     title: str
+    """Its label and the normalized return its record scored: "GAIfO 0.93"."""
     policy: Policy
+    """The kept policy (the expert's for the first panel)."""
     env_id: str
     """The env it is filmed in (the folder's env that `panels` chose)."""
     spec: TrialSpec | None = None
@@ -105,45 +108,6 @@ def panels(
     return result
 
 
-def rollout(
-    panel: Panel, env_id: str, size: int, steps: int, episode_seed: int
-) -> list[np.ndarray]:
-    """(H, W, 3) uint8 frames of one deterministic episode, `steps` + 1 of them: the start
-    state and each step after it; past the episode's end its last frame, dimmed."""
-    camera = envs.make(env_id, episode_seed, PixelConfig(size=size, stack=1, grayscale=False))
-    trial = plan(panel.spec) if panel.spec is not None else None
-    seen = trial.pixels if trial is not None else None
-    actor = trial.make_env(episode_seed, training=False) if seen is not None else None
-    try:
-        view, info = camera.reset(seed=episode_seed)
-        obs = actor.reset(seed=episode_seed)[0] if actor is not None else info["state"]
-        frames = [_frame(view, size, obs, seen)]
-        for _ in range(steps):
-            action = panel.policy(observation(obs)[None])[0]
-            view, _, terminated, truncated, info = camera.step(action)
-            obs = actor.step(action)[0] if actor is not None else info["state"]
-            frames.append(_frame(view, size, obs, seen))
-            if terminated or truncated:
-                break
-    finally:
-        camera.close()
-        if actor is not None:
-            actor.close()
-    ended = (frames[-1] * 0.45).astype(np.uint8)
-    return frames + [ended] * (steps + 1 - len(frames))
-
-
-def _frame(view: np.ndarray, size: int, obs: np.ndarray, seen: PixelConfig | None) -> np.ndarray:
-    """The colour view (H, W, 3); for a pixel learner, its newest frame enlarged beside it."""
-    full = view.reshape(3, size, size).transpose(1, 2, 0)
-    if seen is None:
-        return full
-    newest = obs.reshape(seen.shape)[-seen.frame_channels :]
-    small = Image.fromarray(newest[0] if seen.grayscale else newest.transpose(1, 2, 0))
-    learner = np.asarray(small.resize((size, size), Image.NEAREST).convert("RGB"))
-    return np.concatenate([full, learner], axis=1)
-
-
 def compose(titles: list[str], films: list[list[np.ndarray]]) -> list[np.ndarray]:
     """One (H + title, sum of widths, 3) frame per step: the panels left to right, each under
     its title."""
@@ -200,6 +164,6 @@ def video(
             f" {held / 2**30:.1f} GiB of frames in memory (at most {MAX_BYTES / 2**30:.0f});"
             " film fewer steps, smaller panels, or fewer algorithms"
         )
-    films = [rollout(p, p.env_id, size, steps, episode_seed) for p in chosen]
+    films = [film_episode(p.policy, p.env_id, size, steps, episode_seed, p.spec) for p in chosen]
     titles = [p.title for p in chosen]
     return write(compose(titles, films), out, fps), titles

@@ -1,16 +1,13 @@
-"""`bench video`: the learned policies side by side."""
+"""`bench video`: the learned policies side by side (chosen and laid out by
+`bench.analysis.video`, filmed by `bench.harness.film`)."""
 
 from __future__ import annotations
 
 import argparse
 import importlib.util
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 from bench.cli.args import at_least, out_file
-
-if TYPE_CHECKING:
-    pass
 
 
 def _video(args: argparse.Namespace) -> int:
