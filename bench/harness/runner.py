@@ -11,11 +11,13 @@ atomic file per finished trial, as results stream back.
 
 from __future__ import annotations
 
+import functools
 import itertools
 import os
 import sys
 import warnings
-from collections.abc import Collection, Iterator, Sequence
+from collections.abc import Callable, Collection, Iterator, Sequence
+from contextlib import closing, contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -128,15 +130,6 @@ class WorkersDying(BadInput, RuntimeError):
     """Worker processes keep dying and no trial lands: the run stops (one line, exit 2)."""
 
 
-def _say(bar: tqdm, line: str) -> None:
-    """A line above the progress bar, on stdout; where its reader has left (`| head`), the run
-    goes on without it (stdout goes nowhere from then on)."""
-    try:
-        bar.write(line)
-    except BrokenPipeError:
-        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
-
-
 def run_suite(
     specs: list[TrialSpec],
     results_dir: Path,
@@ -157,18 +150,17 @@ def run_suite(
     `tensorboard`, each trial's scalars go there live as TensorBoard events. The trials of
     the algorithms `first` (names or labels) start before the others'. A trial that a folder
     under `priced_by` has finished (another suite's: the same trial) is linked, not rerun
-    (`store.link`). Trials are priced by the records of every results folder under `priced_by`
-    (default: `results_dir`'s own), read only when something is pending, and by each trial as
-    it finishes. Trials whose algorithm
-    takes snapshots save one every `snapshot_every` seconds under `<results_dir>/.partial/`
-    (None: never) and resume from it after an interruption. Under a time `limit`, a trial starts
-    if it is expected to finish in time or, with snapshots, if it can pause at the limit (see
-    `_jobs`); at the limit every trial in flight that takes snapshots saves one and stops, and
-    the rest are left pending. A trial still running `trial_timeout` seconds after it started
-    is stopped and recorded as failed. With `linked_from`, finished trials are linked from the folders
-    under those (the checkout's committed results, say) rather than `priced_by`'s. Records of
-    these trials' cells made with other settings or
-    another version of a plugin's code are moved aside first (`store.superseded`)."""
+    (`store.link`); with `linked_from`, from the folders under those (the checkout's committed
+    results, say) instead. Trials are priced by the records of every results folder under
+    `priced_by` (default: `results_dir`'s own), read only when something is pending, and by
+    each trial as it finishes. Trials whose algorithm takes snapshots save one every
+    `snapshot_every` seconds under `<results_dir>/.partial/` (None: never) and resume from it
+    after an interruption. Under a time `limit`, a trial starts if it is expected to finish in
+    time or, with snapshots, if it can pause at the limit (see `_jobs`); at the limit every
+    trial in flight that takes snapshots saves one and stops, and the rest are left pending. A
+    trial still running `trial_timeout` seconds after it started is stopped and recorded as
+    failed. Records of these trials' cells made with other settings or another version of a
+    plugin's code are moved aside first (`store.superseded`)."""
     records = list(store.scan(results_dir))
     stale = store.superseded(records, specs)
     if stale:
@@ -179,31 +171,74 @@ def run_suite(
     unlinked = link_finished(todo, results_dir, priced_by if linked_from is None else linked_from)
     linked, todo = len(todo) - len(unlinked), unlinked
     skipped = len(specs) - len(todo)
-    snapshot_plan = None
-    if snapshot_every is not None:
-        stop_at = None if limit is None else limit.wall_deadline()
-        snapshot_plan = SnapshotPlan.of(results_dir, snapshot_every, stop_at)
-        finished = {trial_id for trial_id, status in have.items() if status == "ok"}
-        for trial_id in snapshot_plan.saved() & finished:  # a run killed as a record landed
-            snapshot_plan.discard(trial_id)
+    snapshot_plan = _snapshot_plan(results_dir, snapshot_every, limit, have)
     if not todo:
         return RunSummary(0, 0, skipped, linked=linked, set_aside=len(stale))
     others = [] if priced_by is None else store.scan_under(priced_by, besides=results_dir)
     costs = CostModel.of(itertools.chain(records, others))
     if snapshot_plan is not None:
         costs.done_before = snapshot_plan.done_before(todo)
-    plans = [plan(s) for s in todo]
+    make_demo_pools(todo)
+    with _workers(backend, jobs, scheduler) as workers:
+        landing = _Landing(results_dir, costs, snapshot_plan, workers, todo, progress)
+        with closing(landing.bar):
+            # Each trial runs in a process of its own, forked by the worker (`run_trial_apart`);
+            # loky's workers also die with this driver, so an interrupted run leaves no orphans.
+            in_workers = backend == "loky" and workers > 1
+            dispatch = functools.partial(
+                _jobs,
+                costs=costs,
+                tensorboard=tensorboard,
+                first=first,
+                limit=limit,
+                snapshot_plan=snapshot_plan,
+                in_workers=in_workers,
+                trial_timeout=trial_timeout,
+            )
+            _run_all(todo, jobs, dispatch, landing)
+    left = len(todo) - landing.done - landing.failed - landing.paused
+    return RunSummary(
+        landing.done,
+        landing.failed,
+        skipped,
+        left=left,
+        paused=landing.paused,
+        linked=linked,
+        set_aside=len(stale),
+    )
+
+
+def _snapshot_plan(
+    results_dir: Path, every: float | None, limit: TimeLimit | None, have: dict[str, str]
+) -> SnapshotPlan | None:
+    """Where and how often trials save snapshots (None: `every` is None, never), stopping at
+    the time limit; snapshots of trials already recorded go (a run killed as a record landed)."""
+    if every is None:
+        return None
+    plan = SnapshotPlan.of(results_dir, every, None if limit is None else limit.wall_deadline())
+    finished = {trial_id for trial_id, status in have.items() if status == "ok"}
+    for trial_id in plan.saved() & finished:
+        plan.discard(trial_id)
+    return plan
+
+
+def make_demo_pools(specs: list[TrialSpec]) -> None:
+    """Record the demonstration pools the trials read, once each, before workers fork (each
+    would otherwise record its own)."""
+    plans = [plan(s) for s in specs]
     sources = {
         (p.spec.env_id, p.spec.dataset or "", p.filmed)
         for p in plans
         if p.algorithm.inputs in ("states", "actions")
     }
-    for env_id, dataset, filmed in sources:  # demo pools made once, before forking
+    for env_id, dataset, filmed in sources:
         demo_pool(env_id, dataset or None, filmed)
-    done = failed = paused = 0
-    bar = tqdm(
-        total=len(todo), desc="trials", unit="trial", disable=not progress, dynamic_ncols=True
-    )
+
+
+@contextmanager
+def _workers(backend: str, jobs: int, scheduler: str | None) -> Iterator[int]:
+    """joblib set to run on `backend` (loky here; dask: a scheduler's cluster, or a local one
+    when `scheduler` is None) for the block, which gets the number of workers."""
     client = None
     try:
         if backend == "dask":
@@ -214,91 +249,107 @@ def run_suite(
             except OSError as e:  # no scheduler there, or one that does not answer
                 raise BadInput(f"cannot reach the dask scheduler at {scheduler}: {e}") from None
             ctx = joblib.parallel_config(backend="dask")
+            workers = sum(client.nthreads().values())
         else:
             ctx = joblib.parallel_config(backend=backend, n_jobs=jobs)
+            workers = jobs if jobs > 0 else os.cpu_count() or 1
         with ctx, warnings.catch_warnings():
             # loky replaces workers that grew in memory and says so; no trial is lost by it.
             warnings.filterwarnings("ignore", message="A worker stopped while some jobs were given")
-            parallel = joblib.Parallel(
-                n_jobs=jobs, return_as="generator_unordered", pre_dispatch="n_jobs"
-            )
-            if client is not None:
-                workers = sum(client.nthreads().values())
-            else:
-                workers = jobs if jobs > 0 else os.cpu_count() or 1
-            unfinished = {spec.trial_id: spec for spec in todo}
-            bar.set_postfix(left=costs.time_left(unfinished.values(), workers))
-            # Each trial runs in a process of its own, forked by the worker (`run_trial_apart`);
-            # loky's workers also die with this driver, so an interrupted run leaves no orphans.
-            in_workers = backend == "loky" and workers > 1
-            deaths_in_a_row = 0
-
-            def land(result: TrialResult) -> None:
-                nonlocal done, failed, paused, deaths_in_a_row
-                deaths_in_a_row = 0
-                del unfinished[result.trial_id]
-                if result.status == "paused":  # no record: its snapshot is what is kept
-                    paused += 1
-                else:
-                    if result.policy is not None:  # before the record: it implies its policy
-                        policies.write(results_dir, result.trial_id, result.policy)
-                    store.write(results_dir, result)
-                    if snapshot_plan is not None:  # a record (ok or failed) ends the trial
-                        snapshot_plan.discard(result.trial_id)
-                    costs.finished(result)
-                if result.status == "ok":
-                    done += 1
-                elif result.status == "failed":
-                    failed += 1
-                    last = (result.traceback or "").strip().splitlines()[-1:] or ["?"]
-                    spec = result.spec
-                    _say(bar, f"failed: {spec.env_id} {spec.shown} seed {spec.seed}: {last[0]}")
-                bar.update(1)
-                # "left" counts the trials in flight in full: an upper bound.
-                left = costs.time_left(unfinished.values(), workers)
-                counts = {"done": done, "failed": failed} | ({"paused": paused} if paused else {})
-                bar.set_postfix(**counts, left=left)
-
-            while True:
-                trials = _jobs(
-                    [s for s in todo if s.trial_id in unfinished],
-                    costs,
-                    tensorboard,
-                    first,
-                    limit,
-                    snapshot_plan,
-                    in_workers,
-                    trial_timeout,
-                )
-                try:
-                    for result in parallel(trials):
-                        land(result)
-                    break
-                except TerminatedWorkerError:
-                    # A worker killed from outside (by a user, the out-of-memory killer): the
-                    # pool stops every worker with it, so each trial in flight goes back to
-                    # pending and starts again from its snapshot. Nothing is failed for it;
-                    # only if workers keep dying with no trial landing does the run stop.
-                    deaths_in_a_row += 1
-                    if deaths_in_a_row >= WORKER_DEATHS:
-                        raise WorkersDying(
-                            f"{deaths_in_a_row} worker processes died in a row and no trial"
-                            " landed in between (something keeps killing them?): stopped;"
-                            " the same command resumes where this run stopped"
-                        ) from None
-                    _say(
-                        bar,
-                        "a worker process died (killed from outside the run?): the trials in"
-                        " flight start again, from their snapshots; the run goes on",
-                    )
-                    parallel = joblib.Parallel(
-                        n_jobs=jobs, return_as="generator_unordered", pre_dispatch="n_jobs"
-                    )
+            yield workers
     finally:
-        bar.close()
         if client is not None:
             client.close()
-    left = len(todo) - done - failed - paused
-    return RunSummary(
-        done, failed, skipped, left=left, paused=paused, linked=linked, set_aside=len(stale)
-    )
+
+
+class _Landing:
+    """Where finished trials land: their policy and record written, their snapshot dropped,
+    their cost learned, the counts and the progress bar (with its estimate of the time left)
+    brought up to date."""
+
+    def __init__(
+        self,
+        results_dir: Path,
+        costs: CostModel,
+        snapshot_plan: SnapshotPlan | None,
+        workers: int,
+        todo: list[TrialSpec],
+        progress: bool,
+    ) -> None:
+        self.results_dir, self.costs, self.snapshot_plan = results_dir, costs, snapshot_plan
+        self.workers = workers
+        self.unfinished = {spec.trial_id: spec for spec in todo}
+        self.done = self.failed = self.paused = 0
+        self.bar = tqdm(
+            total=len(todo), desc="trials", unit="trial", disable=not progress, dynamic_ncols=True
+        )
+        self.bar.set_postfix(left=costs.time_left(self.unfinished.values(), workers))
+
+    def land(self, result: TrialResult) -> None:
+        del self.unfinished[result.trial_id]
+        if result.status == "paused":  # no record: its snapshot is what is kept
+            self.paused += 1
+        else:
+            if result.policy is not None:  # before the record: it implies its policy
+                policies.write(self.results_dir, result.trial_id, result.policy)
+            store.write(self.results_dir, result)
+            if self.snapshot_plan is not None:  # a record (ok or failed) ends the trial
+                self.snapshot_plan.discard(result.trial_id)
+            self.costs.finished(result)
+        if result.status == "ok":
+            self.done += 1
+        elif result.status == "failed":
+            self.failed += 1
+            last = (result.traceback or "").strip().splitlines()[-1:] or ["?"]
+            spec = result.spec
+            self.say(f"failed: {spec.env_id} {spec.shown} seed {spec.seed}: {last[0]}")
+        self.bar.update(1)
+        # "left" counts the trials in flight in full: an upper bound.
+        left = self.costs.time_left(self.unfinished.values(), self.workers)
+        counts = {"done": self.done, "failed": self.failed}
+        self.bar.set_postfix(
+            **counts, **({"paused": self.paused} if self.paused else {}), left=left
+        )
+
+    def say(self, line: str) -> None:
+        """A line above the progress bar, on stdout; where its reader has left (`| head`), the
+        run goes on without it (stdout goes nowhere from then on)."""
+        try:
+            self.bar.write(line)
+        except BrokenPipeError:
+            os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+
+
+def _run_all(
+    todo: list[TrialSpec],
+    jobs: int,
+    dispatch: Callable[[list[TrialSpec]], Iterator],
+    landing: _Landing,
+) -> None:
+    """Run the trials (`dispatch` makes the joblib calls of those not yet landed) and land each
+    as it finishes. A worker killed from outside (by a user, the out-of-memory killer) takes
+    the pool's other workers with it: each trial in flight goes back to pending and starts
+    again from its snapshot, and nothing is failed for it; only if workers keep dying with no
+    trial landing does the run stop (`WorkersDying`)."""
+    deaths_in_a_row = 0
+    while True:
+        parallel = joblib.Parallel(
+            n_jobs=jobs, return_as="generator_unordered", pre_dispatch="n_jobs"
+        )
+        try:
+            for result in parallel(dispatch([s for s in todo if s.trial_id in landing.unfinished])):
+                landing.land(result)
+                deaths_in_a_row = 0
+            return
+        except TerminatedWorkerError:
+            deaths_in_a_row += 1
+            if deaths_in_a_row >= WORKER_DEATHS:
+                raise WorkersDying(
+                    f"{deaths_in_a_row} worker processes died in a row and no trial"
+                    " landed in between (something keeps killing them?): stopped;"
+                    " the same command resumes where this run stopped"
+                ) from None
+            landing.say(
+                "a worker process died (killed from outside the run?): the trials in"
+                " flight start again, from their snapshots; the run goes on"
+            )
