@@ -21,7 +21,8 @@ import torch
 from references import reference_returns  # benchmarks/references.py, beside this script
 
 from algorithms.bco import INPUT_NORMS, BCOConfig, clone
-from bench.harness.trial import EVAL_SEED, StepTally, plan
+from bench.harness.trial import EVAL_SEED, plan
+from bench.harness.trial_log import StepTally
 from bench.harness.types import TrialSpec
 from bench.rl.networks import DeterministicPolicy
 from bench.rl.rollout import evaluate

@@ -23,7 +23,8 @@ import torch
 from references import reference_returns  # benchmarks/references.py, beside this script
 
 from bench import envs
-from bench.harness.trial import StepTally, plan
+from bench.harness.trial import plan
+from bench.harness.trial_log import StepTally
 from bench.harness.types import TrialSpec
 from bench.rl.rollout import evaluate
 

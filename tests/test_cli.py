@@ -170,7 +170,7 @@ def test_help_of_every_command(bench_here):
 
 @pytest.mark.parametrize(
     ("hyperparams", "message"),
-    [('{"hiden": [128]}', "ExpertConfig has no field 'hiden'"), ("[1]", "must be a JSON object")],
+    [('{"hiden": [128]}', "ExpertTraining has no field 'hiden'"), ("[1]", "must be a JSON object")],
 )
 def test_expert_hyperparams_are_checked_before_training(hyperparams, message, tmp_path, bench_here):
     out = bench_here(

@@ -184,20 +184,27 @@ def test_killed_expert_training_resumes_from_its_checkpoint(tmp_path):
     assert checkpoint.exists() and not (out / "meta.json").exists(), "not killed midway"
     with pytest.raises(experts.ExpertError, match="other settings"):
         experts.train_expert(env_id, budget // 2, 0, cfg, out)
-    resumed_at = torch.load(checkpoint, weights_only=True)["run"]["steps"]
+    resumed_at = torch.load(checkpoint, weights_only=True)["state"]["steps"]
     assert 0 < resumed_at < budget
     meta = experts.train_expert(env_id, budget, 0, cfg, out, progress=False)
     assert meta["resumes"] == 1 and meta["train_steps"] == budget
     assert not checkpoint.exists()
     policy = experts.GaussianPolicy(meta["obs_dim"], meta["act_dim"], tuple(meta["hidden"]))
     policy.load_state_dict(torch.load(out / "policy.pt", weights_only=True))
+    # It resumed as if it had never stopped: the expert a run in one go ships, to the bit.
+    in_one_go = experts.train_expert(env_id, budget, 0, cfg, tmp_path / "one-go", progress=False)
+    assert in_one_go["return_mean"] == meta["return_mean"]
+    assert in_one_go["snapshot"] == meta["snapshot"]
+    one_go = torch.load(tmp_path / "one-go" / "policy.pt", weights_only=True)
+    for name, value in torch.load(out / "policy.pt", weights_only=True).items():
+        assert torch.equal(value, one_go[name]), name
 
 
 def test_kept_snapshots_are_chosen_on_episodes_of_their_own(tmp_path):
     """With `kept_snapshots`, evenly spaced snapshots join best-seen and final; the one shipped
     scored highest on the selection episodes, and its return is measured on the usual ones."""
     env_id, out = "InvertedPendulum-v5", tmp_path / "expert"
-    cfg = experts.ExpertConfig(n_envs=2, steps_per_env=512, kept_snapshots=3)
+    cfg = experts.ExpertTraining(n_envs=2, steps_per_env=512, kept_snapshots=3)
     meta = experts.train_expert(env_id, 6144, 0, cfg, out, progress=False)
     kept = [name for name in meta["selection"] if name.startswith("kept at")]
     assert kept == ["kept at 2048", "kept at 4096", "kept at 6144"]
@@ -211,4 +218,4 @@ def test_kept_snapshots_are_chosen_on_episodes_of_their_own(tmp_path):
     returns = experts.evaluate_policy(deterministic, env_id, experts.EVAL_EPISODES, seed=10_000)
     assert np.mean(returns) == pytest.approx(meta["return_mean"], abs=0.01)
     with pytest.raises(ValueError, match="kept_snapshots"):
-        experts.ExpertConfig(kept_snapshots=-1)
+        experts.ExpertTraining(kept_snapshots=-1)

@@ -104,7 +104,7 @@ def test_a_video_of_nothing_is_one_line(finished, tmp_path, bench_here, args, me
 def test_every_logged_scalar_is_a_tensorboard_event(finished):
     from tensorboard.backend.event_processing.event_accumulator import EventAccumulator
 
-    from bench.harness.trial import event_dir
+    from bench.harness.trial_log import event_dir
 
     specs, root = finished
     for spec in specs:

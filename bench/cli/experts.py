@@ -17,14 +17,14 @@ if TYPE_CHECKING:
 
 def _experts_train(args: argparse.Namespace) -> int:
     from bench import envs, paths, validate
-    from bench.demos.experts import ExpertConfig, ExpertError, train_expert
+    from bench.demos.experts import ExpertTraining, ExpertError, train_expert
 
     envs.check_env_id(args.env_id)
     batch = {"n_envs": args.n_envs, "steps_per_env": args.steps_per_env}
     settings = {**batch, **args.hyperparams}  # --hyperparams has the last word
     try:
-        validate.check_types(ExpertConfig, settings)
-        cfg = ExpertConfig(**settings)
+        validate.check_types(ExpertTraining, settings)
+        cfg = ExpertTraining(**settings)
     except (TypeError, ValueError) as e:
         raise ExpertError(f"experts train: bad TRPO settings: {e}") from None
     if args.steps < cfg.batch_size:
@@ -61,8 +61,8 @@ def _experts_train(args: argparse.Namespace) -> int:
 
 
 def _trpo_overrides(text: str) -> dict:
-    """argparse type: a JSON object of ExpertConfig fields, or an argparse error naming the problem."""
-    from bench.demos.experts import ExpertConfig
+    """argparse type: a JSON object of ExpertTraining fields, or an argparse error naming the problem."""
+    from bench.demos.experts import ExpertTraining
 
     try:
         value = json.loads(text)
@@ -70,11 +70,11 @@ def _trpo_overrides(text: str) -> dict:
         raise argparse.ArgumentTypeError(f"not JSON: {err}") from None
     if not isinstance(value, dict):
         raise argparse.ArgumentTypeError("must be a JSON object, e.g. '{\"hidden\": [128, 128]}'")
-    known = {f.name for f in dataclasses.fields(ExpertConfig)}
+    known = {f.name for f in dataclasses.fields(ExpertTraining)}
     unknown = sorted(set(value) - known)
     if unknown:
         raise argparse.ArgumentTypeError(
-            f"ExpertConfig has no field {', '.join(map(repr, unknown))} (known: {', '.join(sorted(known))})"
+            f"ExpertTraining has no field {', '.join(map(repr, unknown))} (known: {', '.join(sorted(known))})"
         )
     return value
 
@@ -213,7 +213,7 @@ def add(sub: argparse._SubParsersAction) -> None:
         "--hyperparams",
         type=_trpo_overrides,
         default={},
-        help='ExpertConfig (TRPOConfig) overrides as JSON, e.g. \'{"hidden": [128, 128], "init_log_std": -1.0}\'',
+        help='ExpertTraining (TRPOConfig) overrides as JSON, e.g. \'{"hidden": [128, 128], "init_log_std": -1.0}\'',
     )
     tr.add_argument(
         "--out",

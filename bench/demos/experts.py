@@ -13,8 +13,10 @@ import copy
 import io
 import json
 import time
+from contextlib import AbstractContextManager, closing, nullcontext
 from dataclasses import asdict, dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import torch
@@ -39,7 +41,7 @@ CHECKPOINT_SECONDS = 120.0
 
 
 @dataclass
-class ExpertConfig(TRPOConfig):
+class ExpertTraining(TRPOConfig):
     """TRPO as an expert is trained: the learners' settings, plus what only expert training
     varies (a field here would change every learner's trial ids in TRPOConfig)."""
 
@@ -123,122 +125,54 @@ def train_expert(
     env_id: str,
     steps: int,
     seed: int = 0,
-    cfg: ExpertConfig | TRPOConfig | None = None,
+    cfg: ExpertTraining | TRPOConfig | None = None,
     out_dir: Path | None = None,
     progress: bool = True,
     command: str | None = None,
     checkpoint_every: float = CHECKPOINT_SECONDS,
 ) -> dict:
-    """Train a TRPO expert on the env reward, keep the better of final and best-seen, save it.
+    """Train a TRPO expert on the env reward, keep the best of its candidates (the final
+    policy, the best-seen, and any kept snapshots), save it and return its meta.json.
 
     `command` (the command line that asked for it) is kept in meta.json, so an expert says how
-    to train it again. Progress goes to `CHECKPOINT` in the output folder every
-    `checkpoint_every` seconds; started again with the same settings, training resumes from
-    it (with fresh episodes, so not bit for bit the run it would have been), and the file is
-    removed once the expert is saved.
+    to train it again. Training saves a snapshot to `CHECKPOINT` in the output folder every
+    `checkpoint_every` seconds (`bench.rl.resume`, as trials do); started again with the same
+    settings, it resumes from there as if it had never stopped, and the file is removed once
+    the expert is saved.
     """
-    cfg = cfg or ExpertConfig()
+    cfg = cfg or ExpertTraining()
     out = out_dir or paths.expert_dir(env_id)
     obs_dim, act_dim, low, high = envs.spaces(env_id)
     settings = json.dumps({"env_id": env_id, "steps": steps, "seed": seed, "cfg": asdict(cfg)})
+    checkpoint = CheckpointFile(out / CHECKPOINT, settings, checkpoint_every)
     learner = TRPO(obs_dim, act_dim, cfg, seed)
     if getattr(cfg, "orthogonal_init", False):
         orthogonal_init(learner.policy.mean_net, last_gain=0.01)
         orthogonal_init(learner.value.net, last_gain=1.0)
-    run = {"steps": 0, "wall_time_s": 0.0, "resumes": 0, "recent": [], "kept": []}
-    best = {"score": -np.inf, "state": None, "steps": 0}
-    if (out / CHECKPOINT).exists():
-        saved = torch.load(out / CHECKPOINT, weights_only=True)
-        if saved["settings"] != settings:
-            raise ExpertError(
-                f"{out / CHECKPOINT} is from a training run with other settings: "
-                "rerun that command to resume it, or delete the file to start afresh"
-            )
-        learner.load_state_dict(saved["learner"])
-        run, best = saved["run"], saved["best"]
-        run.setdefault("kept", [])
-        run["resumes"] += 1
-    start, last_save = time.time() - run["wall_time_s"], time.time()
-    recent: list[float] = run["recent"]
-    kept: list[dict] = run["kept"]
     n_kept = getattr(cfg, "kept_snapshots", 0)  # a plain TRPOConfig keeps none
-    spacing = steps / n_kept if n_kept else None
+    run = Progress(kept_every=steps / n_kept if n_kept else None)
     bar = tqdm(
-        total=steps,
-        initial=run["steps"],
-        desc=f"expert {env_id}",
-        unit="step",
-        disable=not progress,
-        smoothing=0.05,
+        total=steps, desc=f"expert {env_id}", unit="step", disable=not progress, smoothing=0.05
     )
-
-    def save_checkpoint() -> None:
-        run.update(wall_time_s=time.time() - start, recent=recent)
-        state = {"settings": settings, "learner": learner.state_dict(), "run": run, "best": best}
-        buf = io.BytesIO()
-        torch.save(state, buf)
-        atomic.write_bytes(out / CHECKPOINT, buf.getvalue())
-
-    done_before = run["steps"]
 
     def on_update(n: int, learner: TRPO, batch, info: dict) -> None:
-        nonlocal last_save
-        run["steps"] = done_before + n
-        recent.extend(batch.episode_returns)
-        del recent[:-20]
-        # Snapshot the best training return seen: TRPO sometimes slips late in a run.
-        if len(recent) >= 5 and np.mean(recent) > best["score"]:
-            best.update(
-                score=float(np.mean(recent)),
-                state=copy.deepcopy(learner.policy.state_dict()),
-                steps=run["steps"],
-            )
-        if spacing is not None and run["steps"] >= (len(kept) + 1) * spacing:
-            kept.append(
-                {"state": copy.deepcopy(learner.policy.state_dict()), "steps": run["steps"]}
-            )
-        bar.update(batch.n_steps)
-        bar.set_postfix(ret=f"{np.mean(recent):.0f}" if recent else "-")
-        if time.time() - last_save >= checkpoint_every:
-            save_checkpoint()
-            last_save = time.time()
+        run.after_update(n, learner, batch.episode_returns)
+        bar.update(n - bar.n)
+        bar.set_postfix(ret=f"{np.mean(run.recent):.0f}" if run.recent else "-")
 
-    if steps - done_before >= cfg.batch_size:
-        # A resumed run steps envs of other seeds than the first: no episode is replayed.
-        make_env = lambda s: envs.make(env_id, s)  # noqa: E731
+    make_env = lambda s: envs.make(env_id, s)  # noqa: E731
+    with closing(bar):
         train(
             make_env,
-            steps - done_before,
-            seed + run["resumes"],
+            steps,
+            seed,
             callback=on_update,
             learner=learner,
+            snapshots=checkpoint,
+            keep={"progress": run},
         )
-    bar.close()
-    candidates = [("final", copy.deepcopy(learner.policy.state_dict()), steps)]
-    if best["state"] is not None:
-        candidates.append(("best", best["state"], best["steps"]))
-    candidates += [(f"kept at {k['steps']}", k["state"], k["steps"]) for k in kept]
-
-    def scored(state: dict, seed: int, episodes: int) -> tuple[list[float], GaussianPolicy]:
-        policy = GaussianPolicy(obs_dim, act_dim, cfg.hidden)
-        policy.load_state_dict(state)
-        deterministic = DeterministicPolicy(policy, low, high)
-        return evaluate_policy(deterministic, env_id, episodes, seed=seed), policy
-
-    # Chosen on episodes of their own where there are many candidates, so that the return
-    # shipped is not the luckiest of many draws on the same episodes.
-    choose_on = SELECTION_SEED if kept else REPORT_SEED
-    ranked = []
-    judged = tqdm(
-        candidates, desc="snapshots scored", unit="snapshot", disable=not progress or not kept
-    )
-    for name, state, at in judged:
-        rets, policy = scored(state, choose_on, cfg.selection_episodes if kept else EVAL_EPISODES)
-        ranked.append((float(np.mean(rets)), rets, name, policy, at))
-    _, rets, which, policy, at = max(ranked, key=lambda r: r[0])
-    if kept:
-        rets, _ = scored(policy.state_dict(), REPORT_SEED, EVAL_EPISODES)
-    mean, std = float(np.mean(rets)), float(np.std(rets))
+    candidates = [("final", copy.deepcopy(learner.policy.state_dict()), steps), *run.candidates()]
+    chosen = choose(candidates, env_id, cfg, len(run.kept) > 0, progress)
     meta = {
         "env_id": env_id,
         "obs_dim": obs_dim,
@@ -248,20 +182,147 @@ def train_expert(
         "hidden": list(cfg.hidden),
         "train_steps": steps,
         "command": command,
-        "snapshot": which,
-        "snapshot_steps": at,
+        "snapshot": chosen.name,
+        "snapshot_steps": chosen.steps,
         "seed": seed,
-        "wall_time_s": round(time.time() - start, 1),
-        "resumes": run["resumes"],
+        "wall_time_s": round(run.spent(), 1),
+        "resumes": run.resumes,
         "package_version": bench.__version__,
         "torch_version": torch.__version__,
         "trpo_config": {k: list(v) if isinstance(v, tuple) else v for k, v in asdict(cfg).items()},
         "eval_episodes": EVAL_EPISODES,
         # What each candidate scored on the selection episodes: how much the choice mattered.
-        **({"selection": {name: round(m, 2) for m, _, name, _, _ in ranked}} if kept else {}),
-        "return_mean": round(mean, 2),
-        "return_std": round(std, 2),
+        **({"selection": chosen.selection} if run.kept else {}),
+        "return_mean": round(float(np.mean(chosen.returns)), 2),
+        "return_std": round(float(np.std(chosen.returns)), 2),
     }
-    save_expert(env_id, policy, meta, out)
-    (out / CHECKPOINT).unlink(missing_ok=True)
+    save_expert(env_id, chosen.policy, meta, out)
+    checkpoint.path.unlink(missing_ok=True)
     return meta
+
+
+class Progress:
+    """What expert training keeps besides its learner, saved in its snapshots as a part
+    (`bench.rl.resume`): the last training returns, the best-scoring policy seen, the
+    snapshots kept every `kept_every` env steps, the wall time spent and the resumes."""
+
+    def __init__(self, kept_every: float | None) -> None:
+        self.kept_every = kept_every
+        self.recent: list[float] = []
+        self.best: dict[str, Any] = {"score": -np.inf, "state": None, "steps": 0}
+        self.kept: list[dict[str, Any]] = []
+        self.resumes = 0
+        self.started = time.time()
+
+    def after_update(self, steps: int, learner: TRPO, episode_returns: list[float]) -> None:
+        self.recent = [*self.recent, *episode_returns][-20:]
+        # Snapshot the best training return seen: TRPO sometimes slips late in a run.
+        if len(self.recent) >= 5 and np.mean(self.recent) > self.best["score"]:
+            state = copy.deepcopy(learner.policy.state_dict())
+            self.best = {"score": float(np.mean(self.recent)), "state": state, "steps": steps}
+        if self.kept_every is not None and steps >= (len(self.kept) + 1) * self.kept_every:
+            self.kept.append({"state": copy.deepcopy(learner.policy.state_dict()), "steps": steps})
+
+    def candidates(self) -> list[tuple[str, dict, int]]:
+        """(name, policy state, env steps) of the best-seen and the kept snapshots."""
+        best = self.best["state"]
+        best = [] if best is None else [("best", best, self.best["steps"])]
+        return best + [(f"kept at {k['steps']}", k["state"], k["steps"]) for k in self.kept]
+
+    def spent(self) -> float:
+        """Wall seconds of training, runs before a resume included."""
+        return time.time() - self.started
+
+    def state_dict(self) -> dict[str, Any]:
+        return {
+            "recent": self.recent,
+            "best": self.best,
+            "kept": self.kept,
+            "resumes": self.resumes,
+            "spent_s": self.spent(),
+        }
+
+    def load_state_dict(self, state: dict[str, Any]) -> None:
+        """Where a run resumes: it is one resume more than the run it goes on from."""
+        self.recent, self.best, self.kept = state["recent"], state["best"], state["kept"]
+        self.resumes = state["resumes"] + 1
+        self.started = time.time() - state["spent_s"]
+
+
+class CheckpointFile:
+    """Expert training's snapshots (`bench.rl.resume.Snapshots`): one file, written atomically
+    every `every_s` seconds, that only a run of the same `settings` resumes from."""
+
+    def __init__(self, path: Path, settings: str, every_s: float) -> None:
+        self.path, self.settings, self.every_s = path, settings, every_s
+        self._last = time.monotonic()
+
+    def due(self) -> bool:
+        return time.monotonic() - self._last >= self.every_s
+
+    def save(self, state: dict[str, Any]) -> None:
+        buf = io.BytesIO()
+        torch.save({"settings": self.settings, "state": state}, buf)
+        atomic.write_bytes(self.path, buf.getvalue())
+        self._last = time.monotonic()
+
+    def load(self) -> dict[str, Any] | None:
+        if not self.path.exists():
+            return None
+        saved = torch.load(self.path, weights_only=True)
+        if saved.get("settings") != self.settings:
+            raise ExpertError(
+                f"{self.path} is from a training run with other settings: "
+                "rerun that command to resume it, or delete the file to start afresh"
+            )
+        return saved["state"]
+
+    def replaying(self) -> AbstractContextManager[None]:
+        return nullcontext()  # no budget is counted outside trials
+
+
+@dataclass(frozen=True)
+class Chosen:
+    """The candidate an expert ships: its name, env steps, policy, and returns on the report
+    episodes; `selection`: what every candidate scored on the selection episodes."""
+
+    name: str
+    steps: int
+    policy: GaussianPolicy
+    returns: list[float]
+    selection: dict[str, float]
+
+
+def choose(
+    candidates: list[tuple[str, dict, int]],
+    env_id: str,
+    cfg: TRPOConfig,
+    many: bool,
+    progress: bool,
+) -> Chosen:
+    """The candidate (name, policy state, env steps) with the highest deterministic return.
+    Where there are `many` (kept snapshots), they are chosen on episodes of their own, so
+    that the return shipped is not the luckiest of many draws on the same episodes, and the
+    one chosen is then measured on the report episodes."""
+    obs_dim, act_dim, low, high = envs.spaces(env_id)
+
+    def scored(state: dict, seed: int, episodes: int) -> tuple[list[float], GaussianPolicy]:
+        policy = GaussianPolicy(obs_dim, act_dim, cfg.hidden)
+        policy.load_state_dict(state)
+        deterministic = DeterministicPolicy(policy, low, high)
+        return evaluate_policy(deterministic, env_id, episodes, seed=seed), policy
+
+    choose_on = SELECTION_SEED if many else REPORT_SEED
+    episodes = getattr(cfg, "selection_episodes", EVAL_EPISODES) if many else EVAL_EPISODES
+    judged = tqdm(
+        candidates, desc="snapshots scored", unit="snapshot", disable=not progress or not many
+    )
+    ranked = []
+    for name, state, at in judged:
+        rets, policy = scored(state, choose_on, episodes)
+        ranked.append((float(np.mean(rets)), rets, name, policy, at))
+    _, rets, name, policy, at = max(ranked, key=lambda r: r[0])
+    if many:
+        rets, _ = scored(policy.state_dict(), REPORT_SEED, EVAL_EPISODES)
+    selection = {name: round(m, 2) for m, _, name, _, _ in ranked}
+    return Chosen(name, at, policy, rets, selection)

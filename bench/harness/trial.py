@@ -11,8 +11,6 @@ from __future__ import annotations
 import copy
 import time
 import traceback
-from collections.abc import Iterator
-from contextlib import contextmanager
 from dataclasses import dataclass, field
 from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
@@ -28,161 +26,19 @@ from bench.envs.pixels import PixelConfig, VideoBeside
 from bench.harness import policies, registry, state_match
 from bench.harness.isolate import Died, die_with_parent, isolated
 from bench.harness.snapshots import SnapshotPlan, TrialPaused
-from bench.harness.types import CURVE_POINTS, CurvePoint, TrialResult, TrialSpec
+from bench.harness.trial_log import (
+    BudgetExceeded,
+    StepCounter,
+    StepTally,
+    TrialLogger,
+    TrialSnapshots,
+    open_events,
+)
+from bench.harness.types import CURVE_POINTS, TrialResult, TrialSpec
 from bench.rl.rollout import evaluate
 
-CURVE_EPISODES = 5
-"""Episodes per learning-curve point; the final evaluation uses the suite's eval_episodes."""
 EVAL_SEED = 100_000
 """Evaluation episodes of seed s start at env seed EVAL_SEED + 1000 s: the same for every algorithm."""
-
-
-SNAPSHOT_FORMAT = 1
-"""The layout of a trial's snapshot (`TrialSnapshots`); a snapshot of another is not resumed."""
-
-
-class BudgetExceeded(RuntimeError):
-    pass
-
-
-@dataclass
-class StepTally:
-    """The env steps a trial has taken, shared by all its envs."""
-
-    steps: int = 0
-    counting: bool = True
-    """Off while an env replays steps already counted (`TrialSnapshots.replaying`)."""
-
-
-class StepCounter(gym.Wrapper):
-    """Counts every step into a shared tally and stops the trial past its budget."""
-
-    def __init__(self, env: gym.Env, tally: StepTally, budget: int) -> None:
-        super().__init__(env)
-        self.tally, self.budget = tally, budget
-
-    def step(self, action):
-        if self.tally.counting:
-            self.tally.steps += 1
-            if self.tally.steps > self.budget:
-                raise BudgetExceeded(
-                    f"algorithm took more than its budget of {self.budget} env steps"
-                )
-        return self.env.step(action)
-
-
-@dataclass
-class TrialLogger:
-    """The runner's side of `registry.Logger`: evaluates offered checkpoints on a schedule."""
-
-    eval_envs: list[gym.Env]
-    eval_seed: int
-    every: int
-    curve: list[CurvePoint] = field(default_factory=list)
-    logs: dict[str, list[float]] = field(default_factory=dict)
-    _next: int = 0
-
-    events: Any = None
-    """A TensorBoard SummaryWriter that gets every scalar as it is logged (None: records only)."""
-    snapshots: TrialSnapshots | None = None
-    """The trial's `bench.rl.resume.Snapshots`, where the runner keeps them (None: it does not)."""
-
-    def checkpoint(self, env_steps: int, policy: registry.Policy) -> None:
-        if env_steps >= self._next:
-            rets = evaluate(policy, self.eval_envs, CURVE_EPISODES, self.eval_seed)
-            self.curve.append(CurvePoint(int(env_steps), float(np.mean(rets))))
-            self._next = env_steps + self.every
-            if self.events is not None:
-                self.events.add_scalar("eval/return", self.curve[-1].mean_return, int(env_steps))
-
-    def log(self, env_steps: int, **scalars: float) -> None:
-        self.logs.setdefault("env_steps", []).append(float(env_steps))
-        for k, v in scalars.items():
-            self.logs.setdefault(k, []).append(float(v))
-            if self.events is not None:
-                self.events.add_scalar(f"train/{k}", float(v), int(env_steps))
-
-
-@dataclass
-class TrialSnapshots:
-    """The runner's side of `bench.rl.resume.Snapshots` for one trial: the algorithm's state saved
-    with the trial's own (env steps, learning curve, logs, time spent), so a resumed trial's
-    record reads as if it had run in one go, but for `resumed_at`."""
-
-    plan: SnapshotPlan
-    spec: TrialSpec
-    tally: StepTally
-    logger: TrialLogger
-    spent_before: float = 0.0
-    """Wall seconds the trial trained before this run resumed it (up to its snapshot)."""
-    resumed_at: list[int] = field(default_factory=list)
-    started: float = field(default_factory=time.time)
-    _last: float = field(default_factory=time.monotonic)
-
-    def spent(self) -> float:
-        """Wall seconds of training so far, runs before this one's included."""
-        return self.spent_before + time.time() - self.started
-
-    def due(self) -> bool:
-        return self.plan.stopping() or time.monotonic() - self._last >= self.plan.every_s
-
-    def save(self, state: dict[str, Any]) -> None:
-        trial = {
-            "env_steps": self.tally.steps,
-            "curve": [[p.env_steps, p.mean_return] for p in self.logger.curve],
-            "logs": self.logger.logs,
-            "next_eval": self.logger._next,
-            "spent_s": self.spent(),
-            "resumed_at": self.resumed_at,
-        }
-        payload = {"format": SNAPSHOT_FORMAT, "trial": trial, "algorithm": state}
-        self.plan.write(self.spec.trial_id, payload, self.tally.steps, self.spec.budget)
-        self._last = time.monotonic()
-        if self.plan.stopping():
-            raise TrialPaused(f"paused at the time limit after {self.tally.steps} env steps")
-
-    def load(self) -> dict[str, Any] | None:
-        payload = self.plan.read(self.spec.trial_id)
-        if payload is None or payload.get("format") != SNAPSHOT_FORMAT:
-            return None  # none, or one of another layout: start afresh and overwrite it
-        trial = payload["trial"]
-        self.tally.steps = trial["env_steps"]
-        self.logger.curve = [CurvePoint(int(s), float(r)) for s, r in trial["curve"]]
-        self.logger.logs = trial["logs"]
-        self.logger._next = trial["next_eval"]
-        self.spent_before, self.started = trial["spent_s"], time.time()
-        self.resumed_at = [*trial["resumed_at"], trial["env_steps"]]
-        return payload["algorithm"]
-
-    @contextmanager
-    def replaying(self) -> Iterator[None]:
-        self.tally.counting = False
-        try:
-            yield
-        finally:
-            self.tally.counting = True
-
-
-def event_dir(root: str | Path, spec: TrialSpec) -> Path:
-    """Where a trial's TensorBoard events go under `root`: one run per trial, named so that
-    TensorBoard's run filter reads env/algorithm/demos/seed."""
-    return (
-        Path(root)
-        / spec.suite
-        / spec.env_id
-        / spec.shown
-        / f"{spec.n_demos}demos"
-        / f"seed{spec.seed}"
-    )
-
-
-def open_events(root: str | Path | None, spec: TrialSpec) -> Any:
-    """A SummaryWriter for the trial's events, or None without `root`."""
-    if root is None:
-        return None
-    from torch.utils.tensorboard import SummaryWriter
-
-    return SummaryWriter(str(event_dir(root, spec)), flush_secs=10)
 
 
 def versions(env_id: str) -> dict[str, str]:
@@ -292,6 +148,20 @@ def expert_distance(spec: TrialSpec, visited: list[np.ndarray]) -> float | None:
     return state_match.state_distance(np.concatenate(visited), expert_states)
 
 
+@dataclass
+class Outcome:
+    """What a trial that ran to its end has to show."""
+
+    returns: list[float] = field(default_factory=list)
+    """Undiscounted return of each evaluation episode."""
+    reference: str | None = None
+    """Where an imported dataset's demonstrator's returns come from (`TrialResult.reference`)."""
+    distance: float | None = None
+    """How far its evaluation states lie from the expert's (`expert_distance`)."""
+    policy: bytes | None = None
+    """The final policy's file (`policies.to_bytes`); None for the expert's (shipped)."""
+
+
 def run_trial(
     spec: TrialSpec,
     inputs: Any,
@@ -313,71 +183,88 @@ def run_trial(
     logger = TrialLogger(eval_envs, eval_seed, every=max(1, spec.budget // points))
     if snapshots is not None:
         logger.snapshots = TrialSnapshots(snapshots, spec, tally, logger)
-    given = reference = distance = saved = role = family = label = None
-    status, returns = "failed", []
+    algo: registry.Algorithm | None = None
+    outcome, status, tb = Outcome(), "failed", None
     try:
         kernels.require(spec.kernels)
         logger.events = open_events(tensorboard, spec)
         torch.manual_seed(spec.seed)
         trial = plan(spec)
         algo = trial.algorithm
-        given, role, family = algo.inputs, algo.role, algo.family
-        label = registry.shown_as(spec.algorithm, spec.label)
-        if spec.dataset and algo.inputs == "expert":
-            # The demonstrator of an imported dataset cannot be run: its returns stand in.
-            returns, reference = minari_io.expert_reference(minari_io.open_dataset(spec.dataset))
-        else:
-            eval_envs += [trial.make_env(eval_seed + i) for i in range(min(10, spec.eval_episodes))]
-            task = trial.task(tally)
-            # a copy: trials that share a spec's config in one process must not share its state
-            config = copy.deepcopy(registry.config_of(spec))
-            policy = algo.train(task, inputs, spec.budget, spec.seed, logger, config)
-            if tally.steps > spec.budget:  # it caught the budget's error and went on
-                raise BudgetExceeded(
-                    f"{spec.algorithm} took {tally.steps} env steps, more than its budget of"
-                    f" {spec.budget} (the budget's error was caught inside the algorithm)"
-                )
-            visited: list[np.ndarray] | None = None if trial.pixels else []
-            returns = evaluate(policy, eval_envs, spec.eval_episodes, eval_seed, visited)
-            # the expert's policy is shipped (results/experts), not kept per trial
-            saved = None if algo.role == "expert" else policies.to_bytes(policy)
-            if saved is not None:
-                policies.from_bytes(saved)  # it must load back, or the trial did not end well
-            distance = expert_distance(spec, visited) if visited else None
-        if not np.all(np.isfinite(returns)):
-            raise FloatingPointError("evaluation returned a non-finite return")
-        status, tb = "ok", None
+        outcome = train_and_evaluate(trial, inputs, tally, logger, eval_envs, eval_seed)
+        status = "ok"
     except TrialPaused:  # at its run's time limit, its snapshot saved: the next run goes on
-        returns, status, tb = [], "paused", None
+        status = "paused"
     except Exception:
-        returns, status, tb = [], "failed", traceback.format_exc()
+        tb = traceback.format_exc()
     finally:
         for env in eval_envs:
             env.close()
         if logger.events is not None:
             if status == "ok":
-                logger.events.add_scalar("eval/final_return", float(np.mean(returns)), tally.steps)
+                final = float(np.mean(outcome.returns))
+                logger.events.add_scalar("eval/final_return", final, tally.steps)
             logger.events.close()
     resumed = logger.snapshots
+    ok = status == "ok"
     return TrialResult(
         spec=spec,
         status=status,
-        returns=[float(r) for r in returns],
+        returns=[float(r) for r in outcome.returns] if ok else [],
         curve=logger.curve,
         env_steps=tally.steps,
         wall_time=round(time.time() - start if resumed is None else resumed.spent(), 3),
         versions=computed_with(spec),
         traceback=tb,
         logs=logger.logs,
-        inputs=given,
-        reference=reference,
-        state_distance=distance,
-        role=role,
-        family=family,
-        label=label,
+        inputs=None if algo is None else algo.inputs,
+        reference=outcome.reference if ok else None,
+        state_distance=outcome.distance if ok else None,
+        role=None if algo is None else algo.role,
+        family=None if algo is None else algo.family,
+        label=None if algo is None else registry.shown_as(spec.algorithm, spec.label),
         resumed_at=[] if resumed is None else resumed.resumed_at,
-        policy=saved if status == "ok" else None,
+        policy=outcome.policy if ok else None,
     )
+
+
+def train_and_evaluate(
+    trial: Plan,
+    inputs: Any,
+    tally: StepTally,
+    logger: TrialLogger,
+    eval_envs: list[gym.Env],
+    eval_seed: int,
+) -> Outcome:
+    """Train the trial's algorithm within its budget and evaluate the policy it returns on
+    `eval_envs` (opened here, closed by the caller); raises what goes wrong."""
+    spec, algo = trial.spec, trial.algorithm
+    if spec.dataset and algo.inputs == "expert":
+        # The demonstrator of an imported dataset cannot be run: its returns stand in.
+        returns, reference = minari_io.expert_reference(minari_io.open_dataset(spec.dataset))
+        outcome = Outcome(returns, reference)
+    else:
+        eval_envs += [trial.make_env(eval_seed + i) for i in range(min(10, spec.eval_episodes))]
+        task = trial.task(tally)
+        # a copy: trials that share a spec's config in one process must not share its state
+        config = copy.deepcopy(registry.config_of(spec))
+        policy = algo.train(task, inputs, spec.budget, spec.seed, logger, config)
+        if tally.steps > spec.budget:  # it caught the budget's error and went on
+            raise BudgetExceeded(
+                f"{spec.algorithm} took {tally.steps} env steps, more than its budget of"
+                f" {spec.budget} (the budget's error was caught inside the algorithm)"
+            )
+        visited: list[np.ndarray] | None = None if trial.pixels else []
+        returns = evaluate(policy, eval_envs, spec.eval_episodes, eval_seed, visited)
+        # the expert's policy is shipped (results/experts), not kept per trial
+        saved = None if algo.role == "expert" else policies.to_bytes(policy)
+        if saved is not None:
+            policies.from_bytes(saved)  # it must load back, or the trial did not end well
+        distance = expert_distance(spec, visited) if visited else None
+        outcome = Outcome(returns, None, distance, saved)
+    if not np.all(np.isfinite(outcome.returns)):
+        raise FloatingPointError("evaluation returned a non-finite return")
+    return outcome
 
 
 OVERRUN_S = 60.0
