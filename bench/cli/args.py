@@ -8,11 +8,6 @@ from collections.abc import Callable
 from pathlib import Path
 
 from bench import validate
-from bench.errors import BadInput
-
-
-class UsageError(BadInput, ValueError):
-    """A command-line argument that cannot work; the message is one line."""
 
 
 class OneLineParser(argparse.ArgumentParser):

@@ -8,10 +8,14 @@ import subprocess
 import sys
 from collections import Counter
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from bench import paths
 from bench.cli.args import duration, existing_folder, folder, jobs_count, output_folder
 from bench.errors import BadInput
+
+if TYPE_CHECKING:
+    from bench.harness.runner import RunSummary
 
 
 def _run(args: argparse.Namespace) -> int:
@@ -19,14 +23,9 @@ def _run(args: argparse.Namespace) -> int:
 
     suite = load_suite(args.suite)
     if suite.kernels == "portable" and not args.estimate:
-        from bench import kernels
-
-        if kernels.active() != "portable":
-            # The libraries read their kernel switches once, when they first compute: the run
-            # starts again in a process that has them from its start (so do its workers).
-            env = {**os.environ, **kernels.pins("portable")}
-            command = [sys.executable, "-m", "bench.cli", *args.argv]
-            return subprocess.run(command, env=env, check=False).returncode
+        restarted = _with_portable_kernels(args)
+        if restarted is not None:
+            return restarted
     specs = select(
         list(suite.trials), args.suite, env=args.env, algorithm=args.algorithm, demos=args.demos
     )
@@ -35,20 +34,8 @@ def _run(args: argparse.Namespace) -> int:
     from bench.harness import store
     from bench.harness.costs import TimeLimit
     from bench.harness.runner import run_suite
-    from bench.harness.snapshots import FOLDER
 
-    results = Path(args.results) if args.results else Path("results") / suite.name
-    cache = paths.CACHE_DIR  # demonstration pools are recorded there before any trial
-    existing = next((p for p in (cache, *cache.parents) if p.exists()), cache)
-    if not existing.is_dir():
-        raise BadInput(f"the demonstration cache {cache} (IFO_BENCH_CACHE) is under a file")
-    shipped = paths.shipped_folder(results)
-    if shipped is not None:
-        raise BadInput(
-            f"{results}: results would be written into {shipped}, which holds the shipped"
-            " experts; name another folder (--results DIR, or another suite name)"
-        )
-    backend = args.backend or suite.runner.backend
+    results = _results_folder(args, suite.name)
     jobs = args.jobs if args.jobs is not None else suite.runner.jobs
     # Finished trials are looked for beside the results folder, in the checkout's committed
     # results (whatever --results says) and in every folder named by --reuse.
@@ -67,7 +54,7 @@ def _run(args: argparse.Namespace) -> int:
             specs,
             results,
             jobs=jobs,
-            backend=backend,
+            backend=args.backend or suite.runner.backend,
             scheduler=args.scheduler,
             retry_failed=args.retry_failed,
             tensorboard=args.tensorboard,
@@ -78,6 +65,46 @@ def _run(args: argparse.Namespace) -> int:
             snapshot_every=args.snapshot_every,
             trial_timeout=args.trial_timeout or suite.runner.trial_timeout,
         )
+    _say_what_ran(summary, results)
+    return 1 if summary.failed else 0
+
+
+def _with_portable_kernels(args: argparse.Namespace) -> int | None:
+    """Run the command again in a process started with the portable kernels pinned, and return
+    its exit status; None where this process has them already. The libraries read their kernel
+    switches once, when they first compute: the run must have them from its start (and so
+    must its workers, which inherit them)."""
+    from bench import kernels
+
+    if kernels.active() == "portable":
+        return None
+    env = {**os.environ, **kernels.pins("portable")}
+    command = [sys.executable, "-m", "bench.cli", *args.argv]
+    return subprocess.run(command, env=env, check=False).returncode
+
+
+def _results_folder(args: argparse.Namespace, suite_name: str) -> Path:
+    """Where the run writes: --results, else results/<suite name>; refused (BadInput) where
+    that would write into the shipped experts, or where the demonstration cache cannot be."""
+    results = Path(args.results) if args.results else Path("results") / suite_name
+    cache = paths.CACHE_DIR  # demonstration pools are recorded there before any trial
+    existing = next((p for p in (cache, *cache.parents) if p.exists()), cache)
+    if not existing.is_dir():
+        raise BadInput(f"the demonstration cache {cache} (IFO_BENCH_CACHE) is under a file")
+    shipped = paths.shipped_folder(results)
+    if shipped is not None:
+        raise BadInput(
+            f"{results}: results would be written into {shipped}, which holds the shipped"
+            " experts; name another folder (--results DIR, or another suite name)"
+        )
+    return results
+
+
+def _say_what_ran(summary: RunSummary, results: Path) -> None:
+    """The run's `RunSummary` in words, and what to do next."""
+    from bench.harness import store
+    from bench.harness.snapshots import FOLDER
+
     if summary.set_aside:
         print(
             f"{summary.set_aside} records of these cells were made with other settings or another"
@@ -101,7 +128,6 @@ def _run(args: argparse.Namespace) -> int:
         )
     if summary.failed:
         print("rerun with --retry-failed to try the failed trials again", file=sys.stderr)
-    return 1 if summary.failed else 0
 
 
 def _estimate(specs: list, results: Path, jobs: int, reuse: list[Path]) -> int:
@@ -184,6 +210,14 @@ def add(sub: argparse._SubParsersAction) -> None:
         type=folder,
         help="where records go (default results/<suite name>)",
     )
+    _add_selection(run)
+    _add_run_control(run)
+    _add_backend(run)
+    run.set_defaults(func=_run)
+
+
+def _add_selection(run: argparse.ArgumentParser) -> None:
+    """Which of the suite's trials to run."""
     run.add_argument(
         "--env",
         action="append",
@@ -203,6 +237,10 @@ def add(sub: argparse._SubParsersAction) -> None:
         metavar="N",
         help="run only the trials with N demonstrations (repeatable), and those that take none",
     )
+
+
+def _add_run_control(run: argparse.ArgumentParser) -> None:
+    """How many at once, what to reuse, rerun or price, and when to stop."""
     run.add_argument(
         "--jobs", type=jobs_count, help="parallel trials (default: the suite's, else all cores)"
     )
@@ -246,6 +284,10 @@ def add(sub: argparse._SubParsersAction) -> None:
         help="how often a trial (of any built-in algorithm) saves its state under"
         " RESULTS/.partial/, to resume from if the run is cut off (default 10m)",
     )
+
+
+def _add_backend(run: argparse.ArgumentParser) -> None:
+    """Where the trials run, and where their scalars go besides the records."""
     run.add_argument(
         "--backend",
         choices=["loky", "dask"],
@@ -263,4 +305,3 @@ def add(sub: argparse._SubParsersAction) -> None:
         help="also write every trial's logged scalars there as TensorBoard events, live"
         " (tensorboard --logdir DIR)",
     )
-    run.set_defaults(func=_run)

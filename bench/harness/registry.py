@@ -131,7 +131,7 @@ class TrainFn(Protocol):
     ) -> Policy: ...
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class Algorithm:
     name: str
     train: TrainFn
@@ -229,10 +229,10 @@ def register(
                 f"{_origin(train)}; rename one"
             )
         _ALGORITHMS[name] = Algorithm(
-            name,
-            train,
-            config,
-            inputs,
+            name=name,
+            train=train,
+            config=config,
+            inputs=inputs,
             description=doc,
             pixels=pixels,
             video_reward=video_reward,
