@@ -13,6 +13,7 @@ import pytest
 
 from bench.harness import isolate, trial
 from bench.harness.isolate import Died, isolated
+from benchmarks.kill_workers import workers_of  # the benchmark kills workers alike
 
 PENDULUM = "InvertedPendulumBulletEnv-v0"
 
@@ -155,7 +156,7 @@ def test_a_killed_worker_sends_its_trial_back_and_the_run_goes_on(tmp_path):
     deadline = time.time() + 240
     while killed < 2 and time.time() < deadline and proc.poll() is None:
         time.sleep(1.0)
-        workers = _loky_workers(proc.pid)
+        workers = workers_of(proc.pid)
         if len(workers) == 2 and list((results / "trials").glob("*.json")):
             os.kill(workers[killed % 2], signal.SIGKILL)
             killed += 1
@@ -164,21 +165,6 @@ def test_a_killed_worker_sends_its_trial_back_and_the_run_goes_on(tmp_path):
     assert killed >= 1 and "a worker process died" in out + err
     records = [json.loads(p.read_text()) for p in (results / "trials").glob("*.json")]
     assert len(records) == 6 and all(r["status"] == "ok" for r in records)
-
-
-def _loky_workers(driver: int) -> list[int]:
-    """The pids of the driver's loky worker processes."""
-    workers = []
-    for entry in Path("/proc").iterdir():
-        try:
-            stat = (entry / "stat").read_text()
-            command = (entry / "cmdline").read_bytes()
-        except OSError:
-            continue
-        parent = int(stat.rsplit(")", 1)[1].split()[1])
-        if parent == driver and b"LokyProcess" in command:
-            workers.append(int(entry.name))
-    return sorted(workers)
 
 
 def test_a_reader_that_leaves_fails_no_trial(tmp_path):
