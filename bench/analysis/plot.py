@@ -150,7 +150,7 @@ def figure2(df: pd.DataFrame, out: str | Path) -> list[Path]:
 
 
 def draw_iqm_curves(frame: pd.DataFrame, title: str, names: Names) -> Figure:
-    """Per env, IQM normalized return against env steps, band the 95% CI (from `stats.iqm_curves`).
+    """Per env, IQM normalized return against env steps, band the 95% CI (from `curves.iqm_curves`).
     Legend labels from `names` (a * for those given expert actions)."""
     envs = env_order(frame["env_id"].unique())
     algos = algorithm_order(frame["algorithm"].unique())
