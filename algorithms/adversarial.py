@@ -17,17 +17,14 @@ log D - log(1 - D) pays neither for survival nor for falling. With
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import torch
 
 from bench.fields import added_later
-from bench.harness.learners import (
-    ImitationTRPOConfig,
-    PolicyAverage,
-    report_each_update,
-)
-from bench.harness.registry import Logger, Task, snapshots_of
+from bench.harness.learners import ImitationTRPOConfig, trpo_on_reward
+from bench.harness.registry import Logger, Task
 from bench.imitation.data import Demos
 from bench.imitation.discriminator import (
     REWARDS,
@@ -35,7 +32,7 @@ from bench.imitation.discriminator import (
     Features,
     RewardingDiscriminatorConfig,
     discriminator_log,
-    discriminator_loss,
+    discriminator_step,
     expert_transitions,
 )
 from bench.imitation.rewards import batch_rewards, batch_transitions
@@ -47,9 +44,9 @@ from bench.rl.networks import (
     RunningNorm,
     normalizer,
 )
+from bench.rl.resume import Stateful
 from bench.rl.rollout import Batch, Rewards
 from bench.rl.shared_trunk import make_trpo
-from bench.rl.trpo import train
 from bench.validate import at_least, one_of
 
 DISC_NORMS = ("policy", "expert")
@@ -66,30 +63,21 @@ class AdversarialConfig(ImitationTRPOConfig, RewardingDiscriminatorConfig):
     the on-policy loop trains D and rewards the policy."""
 
     disc_steps: int = 5
-    """Discriminator minibatch steps per policy update. A task with few updates in its budget
-    wants more: the suites give InvertedPendulum 25 (README, "D's pace per task")."""
+    """Discriminator minibatch steps per policy update (docs/design/d-pace.md)."""
     disc_minibatch: int = 256
     """Policy samples (and as many expert samples) per discriminator step."""
     absorbing: bool = True
     """Terminations lead into an absorbing state that D judges (bench.rl.absorbing); off: valued 0."""
     disc_norm: str = "policy"
-    """How D scales the states it judges: "policy" (the policy's running statistics, shared with
-    it) or "expert" (the demonstrations' statistics, fixed, as the off-policy learners' D).
-    States only; frames are scaled to [0, 1] either way."""
+    """How D scales the states it judges: by the policy's running statistics ("policy") or the
+    demonstrations' fixed ones ("expert"); frames are scaled to [0, 1] either way."""
     disc_pause_above: float = 1.0
     """D takes no step in an update where it already tells more than this share of the policy's
-    new batch from the expert (judged before training); 1 never pauses. Meant for where D is
-    right on 0.99-1.00 of the policy's samples for hundreds of thousands of steps while the
-    policy makes no progress (Ant's start, Hopper's slow seed). On Ant at 0.99 it did worse:
-    the policy never fooled the frozen D (docs: "D's pace per task")."""
+    new batch from the expert; 1 never pauses (docs/design/settings.md)."""
 
     absorbing_floor: str = added_later("none")
-    """A floor under D's reward for the absorbing state, per batch: "none", "mean" (the batch's
-    real steps' mean reward: a fall then costs no more than carrying on as the policy does on
-    average) or "min" (their lowest: no worse than the worst step taken). D judges a state the
-    expert never reaches (Hopper's expert never falls) ever lower while the policy rarely
-    falls (-0.6 at the start to -1.5 per step at 1M), so a hopper that stands values a fall
-    at ~3x its own flat reward for ever and risks no step (docs/results/hopper-1m.md)."""
+    """A floor under D's reward for the absorbing state, per batch: "none", or the batch's real
+    steps' "mean" or "min" reward (docs/design/settings.md)."""
 
     def __post_init__(self) -> None:
         super().__post_init__()
@@ -132,41 +120,81 @@ def floor_absorbing(r: np.ndarray, n_real: int, kind: str) -> tuple[np.ndarray, 
     return np.concatenate([real, np.maximum(r[n_real:], floor)]), floor
 
 
-def discriminator_step(
-    disc: Discriminator,
-    opt: torch.optim.Optimizer,
-    policy_x: Transitions,
-    expert_x: Transitions,
-    cfg: AdversarialConfig,
-    gen: torch.Generator,
-    pause: bool = False,
-) -> dict[str, float]:
-    """`disc_steps` Adam steps of binary cross-entropy, expert labelled 1; returns the last losses.
-    `pause`: no step, the losses of one minibatch only (logged as usual)."""
+def minibatch(x: Transitions, n: int, weighted: bool, gen: torch.Generator) -> Transitions:
+    """n rows of `x` drawn with replacement: in proportion to occupancy (`weighted`: the
+    absorbing loop stands for many steps, `bench.rl.absorbing`), else uniformly."""
+    if weighted:
+        idx = torch.multinomial(x.weight, n, replacement=True, generator=gen)
+    else:
+        idx = torch.randint(len(x), (n,), generator=gen)
+    return x.map(lambda field: field[idx])
 
-    def minibatch(x: Transitions) -> torch.Tensor:
-        if cfg.absorbing:  # in proportion to occupancy: the absorbing loop stands for many steps
-            idx = torch.multinomial(x.weight, cfg.disc_minibatch, replacement=True, generator=gen)
-        else:
-            idx = torch.randint(len(x), (cfg.disc_minibatch,), generator=gen)
-        return disc.inputs(x.map(lambda field: field[idx]))
 
-    def mix_weights(n: int) -> torch.Tensor:
-        return torch.rand(n, 1, generator=gen)
+class DiscriminatorReward(Stateful):
+    """TRPO's reward hook: on each batch, D takes `disc_steps` minibatch steps of the policy's
+    transitions against the expert's, then rewards the batch from D as it is after them,
+    with D's diagnostics to log."""
 
-    def normal(shape: torch.Size) -> torch.Tensor:
-        return torch.randn(shape, generator=gen)
+    def __init__(
+        self,
+        disc: Discriminator,
+        expert: Transitions,
+        task: Task,
+        cfg: AdversarialConfig,
+        seed: int,
+    ) -> None:
+        """`expert`: the expert's transitions as tensors (`expert_transitions`)."""
+        self.disc, self.expert, self.task, self.cfg = disc, expert, task, cfg
+        self.opt = torch.optim.Adam(disc.parameters(), lr=cfg.disc_lr)
+        self.gen = torch.Generator().manual_seed(seed + 2)
+        self.reward = REWARDS[cfg.reward]
+        seen_dim = int(np.prod(task.judged_shape))
+        probe = absorbing.tails(np.zeros((1, seen_dim)), task.act_dim, cfg.gamma)
+        self.absorbing_probe = probe.map(torch.as_tensor)
 
-    for _ in range(cfg.disc_steps):
-        p, e = minibatch(policy_x), minibatch(expert_x)
-        loss, parts = discriminator_loss(disc.net, p, e, cfg, mix_weights, normal)
-        if pause:  # the first minibatch's losses, for the log
-            break
-        opt.zero_grad()
-        loss.backward()
-        opt.step()
-    loss, acc_policy, acc_expert = discriminator_log(parts).items()
-    return dict([loss, ("disc_grad_penalty", parts["penalty"].item()), acc_policy, acc_expert])
+    def parts(self) -> dict[str, Any]:
+        return {"disc": self.disc, "disc_opt": self.opt, "disc_gen": self.gen}
+
+    def train_disc(self, policy_x: Transitions, pause: bool) -> dict[str, float]:
+        """`disc_steps` steps of D on minibatches of `policy_x` against the expert's; what is
+        logged of the last. `pause`: no step, the losses of one minibatch only."""
+        disc, cfg, gen = self.disc, self.cfg, self.gen
+        for _ in range(cfg.disc_steps):
+            p = disc.inputs(minibatch(policy_x, cfg.disc_minibatch, cfg.absorbing, gen))
+            e = disc.inputs(minibatch(self.expert, cfg.disc_minibatch, cfg.absorbing, gen))
+            parts = discriminator_step(disc.net, self.opt, p, e, cfg, gen, learn=not pause)
+            if pause:
+                break
+        return {**discriminator_log(parts), "disc_grad_penalty": parts["penalty"].item()}
+
+    def __call__(self, batch: Batch) -> Rewards:
+        disc, cfg = self.disc, self.cfg
+        low, high = self.task.action_low, self.task.action_high
+        x, terminated = batch_transitions(batch, low, high, cfg.gamma, cfg.absorbing)
+        policy_x = x.map(torch.as_tensor)
+        n_real = batch.n_steps
+        pause = False
+        if cfg.disc_pause_above < 1:
+            with torch.no_grad():
+                told_apart = (disc(policy_x)[:n_real] < 0).float().mean().item()
+            pause = told_apart > cfg.disc_pause_above
+        stats = self.train_disc(policy_x, pause)
+        if cfg.disc_pause_above < 1:
+            stats["disc_paused"] = float(pause)
+        with torch.no_grad():
+            r = self.reward(disc(policy_x)).numpy()
+        stats["reward_mean"] = float(r[:n_real].reshape(batch.rewards.shape).mean())
+        if cfg.absorbing_floor != "none":
+            r, stats["absorbing_floor"] = floor_absorbing(r, n_real, cfg.absorbing_floor)
+        stats["terminations"] = float(terminated.sum())
+        if cfg.absorbing:
+            # D's current reward for the absorbing loop, logged every update: in batches
+            # without a termination D has no absorbing sample to train on, and what it makes
+            # of the state then drifts; that drift is what a collapse after reaching the expert
+            # needs watching for.
+            with torch.no_grad():
+                stats["reward_absorbing"] = float(self.reward(disc(self.absorbing_probe))[1])
+        return batch_rewards(r, batch, terminated, cfg.gamma, cfg.absorbing, stats)
 
 
 def train_adversarial(
@@ -184,14 +212,13 @@ def train_adversarial(
 
     `expert_actions`: (T_i, A) per demonstration, for a variant whose features use them (GAIL).
     """
+    # Built first: D may scale its inputs with the policy's running statistics.
     learner = make_trpo(task.obs_shape, task.act_dim, cfg, seed)
     expert = expert_transitions(
         demos.observations, demos.terminated, expert_actions, cfg.absorbing, cfg.gamma
     )
-    expert_x = expert.map(torch.as_tensor)
-    norm = disc_normalizer(task, learner.policy.norm, demos, cfg.disc_norm)
     disc = Discriminator(
-        norm,
+        disc_normalizer(task, learner.policy.norm, demos, cfg.disc_norm),
         features,
         task.judged_shape,
         task.act_dim,
@@ -199,51 +226,5 @@ def train_adversarial(
         cfg.absorbing,
         cfg.disc_obs_dims,
     )
-    seen_dim = int(np.prod(task.judged_shape))
-    opt = torch.optim.Adam(disc.parameters(), lr=cfg.disc_lr)
-    gen = torch.Generator().manual_seed(seed + 2)
-    reward = REWARDS[cfg.reward]
-    average = PolicyAverage(cfg.policy_average, like=learner.policy)
-    absorbing_probe = absorbing.tails(np.zeros((1, seen_dim)), task.act_dim, cfg.gamma).map(
-        torch.as_tensor
-    )
-
-    def reward_fn(batch: Batch) -> Rewards:
-        low, high = task.action_low, task.action_high
-        x, terminated = batch_transitions(batch, low, high, cfg.gamma, cfg.absorbing)
-        policy_x = x.map(torch.as_tensor)
-        n_real = batch.n_steps
-        pause = False
-        if cfg.disc_pause_above < 1:
-            with torch.no_grad():
-                told_apart = (disc(policy_x)[:n_real] < 0).float().mean().item()
-            pause = told_apart > cfg.disc_pause_above
-        stats = discriminator_step(disc, opt, policy_x, expert_x, cfg, gen, pause)
-        if cfg.disc_pause_above < 1:
-            stats["disc_paused"] = float(pause)
-        with torch.no_grad():
-            r = reward(disc(policy_x)).numpy()
-        stats["reward_mean"] = float(r[:n_real].reshape(batch.rewards.shape).mean())
-        if cfg.absorbing_floor != "none":
-            r, stats["absorbing_floor"] = floor_absorbing(r, n_real, cfg.absorbing_floor)
-        stats["terminations"] = float(terminated.sum())
-        if cfg.absorbing:
-            # D's current reward for the absorbing loop, logged every update: in batches
-            # without a termination D has no absorbing sample to train on, and what it makes
-            # of the state then drifts; that drift is what a collapse after reaching the expert
-            # needs watching for.
-            with torch.no_grad():
-                stats["reward_absorbing"] = float(reward(disc(absorbing_probe))[1])
-        return batch_rewards(r, batch, terminated, cfg.gamma, cfg.absorbing, stats)
-
-    train(
-        task.make_env,
-        budget,
-        seed,
-        reward_fn=reward_fn,
-        callback=report_each_update(task, logger, average),
-        learner=learner,
-        snapshots=snapshots_of(logger),
-        keep={"disc": disc, "disc_opt": opt, "disc_gen": gen, "average": average},
-    )
-    return average.policy(learner, task)
+    reward = DiscriminatorReward(disc, expert.map(torch.as_tensor), task, cfg, seed)
+    return trpo_on_reward(task, budget, seed, logger, cfg, reward, learner)

@@ -75,11 +75,7 @@ class BCOConfig:
     """Initial log std of the policy; cloning then fits it by maximum likelihood."""
     input_norm: str = added_later("demos")
     """What the policy's input normalizer is fitted to: "demos" (the demonstrations' states) or
-    "none" (raw inputs). Where the expert holds a pose its states span a tiny region, and
-    normalizing by them magnifies a cloned policy's first small drift into inputs it never saw:
-    on InvertedDoublePendulum-v5 (the cart's position varies by 0.032, the poles' sines by
-    0.016 and 0.007) cloning the expert's own actions from 25 demonstrations scores 0.05-0.06
-    with "demos" and 0.90-1.00 with "none" (`benchmarks/clone_expert.py`)."""
+    "none" (raw inputs; docs/design/settings.md)."""
 
     def __post_init__(self) -> None:
         layers(self, "inverse_hidden", "policy_hidden")
@@ -117,6 +113,74 @@ def clone(
     return policy, loss.item()
 
 
+class AgentData:
+    """The agent's own transitions (s, a, s') that M learns from, split at random as they come
+    into a training part and a held-out part (to measure M's error); M's input normalizers
+    follow every transition added."""
+
+    def __init__(self, model: InverseModel, val_fraction: float, rng: np.random.Generator):
+        self.model, self.val_fraction, self.rng = model, val_fraction, rng
+        self.train, self.held_out = TransitionRows(), TransitionRows()
+
+    def add(self, s: np.ndarray, a: np.ndarray, s_next: np.ndarray) -> None:
+        held = self.rng.random(len(s)) < self.val_fraction
+        self.train.append(s[~held], a[~held], s_next[~held])
+        self.held_out.append(s[held], a[held], s_next[held])
+        self.model.update_norms(s, s_next)
+
+    def state(self) -> list[list[torch.Tensor]]:
+        return [list(rows.tensors()) for rows in (self.train, self.held_out)]
+
+    def load(self, state: list[list[torch.Tensor]]) -> None:
+        for rows, saved in zip((self.train, self.held_out), state, strict=True):
+            rows.append(*(x.numpy() for x in saved))
+
+
+Act = Callable[[np.ndarray], np.ndarray]
+"""act(observations (E, O)) -> actions (E, A)."""
+
+
+def uniform_actions(low: np.ndarray, high: np.ndarray, rng: np.random.Generator) -> Act:
+    """The pre-demonstration policy: actions uniform between the bounds."""
+    return lambda obs: rng.uniform(low, high, size=(len(obs), len(low))).astype(np.float32)
+
+
+def sampler(policy: GaussianPolicy, rng: np.random.Generator) -> Act:
+    """The cloned policy as it explores: its mean plus its Gaussian noise."""
+
+    @torch.no_grad()
+    def sample(obs: np.ndarray) -> np.ndarray:
+        mean = policy(torch.from_numpy(obs)).numpy()
+        return mean + np.exp(policy.log_std.numpy()) * rng.standard_normal(mean.shape)
+
+    return sample
+
+
+def collect(rollouts: VecCollector, act: Act, n: int, data: AgentData, task: Task) -> int:
+    """Step the envs with `act` for n steps, rounded down to whole rounds of one step each, and
+    add them (actions as the envs applied them) to M's data; the steps taken."""
+    batch = rollouts.run(act, n // len(rollouts.envs))
+    applied = np.clip(batch.flat("actions"), task.action_low, task.action_high)
+    data.add(batch.flat("obs"), applied, batch.flat("next_obs"))
+    return batch.n_steps
+
+
+def label_and_clone(
+    model: InverseModel,
+    demos: tuple[torch.Tensor, torch.Tensor],
+    task: Task,
+    cfg: BCOConfig,
+    gen: torch.Generator,
+) -> tuple[GaussianPolicy, float]:
+    """The demonstrations' (s, s') labelled with M's best guess of the action, clipped to the
+    bounds, and cloned (`clone`): the policy, and its last NLL."""
+    demo_s, demo_next = demos
+    low, high = torch.from_numpy(task.action_low), torch.from_numpy(task.action_high)
+    with torch.no_grad():
+        labels = model(demo_s, demo_next).clamp(low, high)
+    return clone(demo_s, labels, task, cfg, gen)
+
+
 @register(
     "bco",
     config=BCOConfig,
@@ -139,36 +203,10 @@ def train(
     rng = np.random.default_rng(seed)
     gen = torch.Generator().manual_seed(seed + 1)
     low, high = task.action_low, task.action_high
-    demo_s, demo_next = (torch.from_numpy(x) for x in demos.transitions())
+    demo_pairs = tuple(torch.from_numpy(x) for x in demos.transitions())
     model = InverseModel(task.obs_dim, task.act_dim, cfg.inverse_hidden)
     model_opt = torch.optim.Adam(model.net.parameters(), lr=cfg.inverse_lr)
-    train_data, val_data = TransitionRows(), TransitionRows()  # the agent's own (s, a, s')
-
-    def add(chunk: tuple[np.ndarray, np.ndarray, np.ndarray]) -> None:
-        """Split a chunk of (s, a, s') into training and held-out parts; update M's normalizers."""
-        held = rng.random(len(chunk[0])) < cfg.val_fraction
-        train_data.append(*(x[~held] for x in chunk))
-        val_data.append(*(x[held] for x in chunk))
-        model.update_norms(chunk[0], chunk[2])
-
-    def uniform(obs: np.ndarray) -> np.ndarray:
-        return rng.uniform(low, high, size=(len(obs), task.act_dim)).astype(np.float32)
-
-    def collect(act: Callable[[np.ndarray], np.ndarray], n: int) -> int:
-        """Step the envs with `act` for n steps rounded down to whole rounds; add them to M's data."""
-        batch = rollouts.run(act, n // cfg.n_envs)
-        applied = np.clip(batch.flat("actions"), low, high)
-        add((batch.flat("obs"), applied, batch.flat("next_obs")))
-        return batch.n_steps
-
-    def sampler(policy: GaussianPolicy) -> Callable[[np.ndarray], np.ndarray]:
-        @torch.no_grad()
-        def sample(obs: np.ndarray) -> np.ndarray:
-            mean = policy(torch.from_numpy(obs)).numpy()
-            return mean + np.exp(policy.log_std.numpy()) * rng.standard_normal(mean.shape)
-
-        return sample
-
+    data = AgentData(model, cfg.val_fraction, rng)
     chunk = round(cfg.alpha * cfg.pre_demo_steps)
     rollouts = VecCollector(
         [task.make_env(seed * 1000 + i) for i in range(cfg.n_envs)], seed * 1000
@@ -187,38 +225,29 @@ def train(
 
     def counters() -> dict:
         """The loop's counters, and M's data."""
-        data = [list(rows.tensors()) for rows in (train_data, val_data)]
-        return {"steps": steps, "iteration": iteration, "data": data}
+        return {"steps": steps, "iteration": iteration, "data": data.state()}
 
     try:
-        if (resumed := resume.restore()) is None:
-            steps, iteration = collect(uniform, cfg.pre_demo_steps), 0  # pre-demonstration phase
+        if (resumed := resume.restore()) is None:  # the pre-demonstration phase
+            uniform = uniform_actions(low, high, rng)
+            steps, iteration = collect(rollouts, uniform, cfg.pre_demo_steps, data, task), 0
         else:
             steps, iteration = resumed["steps"], resumed["iteration"]
-            for rows, saved in zip((train_data, val_data), resumed["data"], strict=True):
-                rows.append(*(x.numpy() for x in saved))
+            data.load(resumed["data"])
         while True:
             resume.save_if_due(counters)
             fit_steps = cfg.inverse_steps if iteration == 0 else cfg.inverse_refit_steps
-            inverse_loss = fit_inverse(
-                model, model_opt, train_data.tensors(), fit_steps, cfg.minibatch, gen
+            train_mse = fit_inverse(
+                model, model_opt, data.train.tensors(), fit_steps, cfg.minibatch, gen
             )
-            with torch.no_grad():  # label the demonstrations with M's best guess
-                labels = model(demo_s, demo_next).clamp(
-                    torch.from_numpy(low), torch.from_numpy(high)
-                )
-            policy, bc_nll = clone(demo_s, labels, task, cfg, gen)
-            logger.log(
-                steps,
-                inverse_train_mse=inverse_loss,
-                bc_nll=bc_nll,
-                **inverse_error(model, val_data.tensors()),
-            )
+            policy, bc_nll = label_and_clone(model, demo_pairs, task, cfg, gen)
+            held_out = inverse_error(model, data.held_out.tensors())
+            logger.log(steps, inverse_train_mse=train_mse, bc_nll=bc_nll, **held_out)
             logger.checkpoint(steps, DeterministicPolicy(policy, low, high))
             n = min(chunk, budget - steps)  # never past the budget: the last chunk may be short
             if n < cfg.n_envs or iteration == cfg.max_iterations:
                 break
-            steps += collect(sampler(policy), n)  # post-demonstration phase
+            steps += collect(rollouts, sampler(policy, rng), n, data, task)  # post-demonstration
             iteration += 1
     finally:
         rollouts.close()

@@ -1,6 +1,6 @@
 """The off-policy family: GAIfO and GAIL on SAC with absorbing states (DAC, Kostrikov et al.
-2019; GAIfO on it is "DACfO"), and the two controls on the same optimizer, so every
-comparison among them stays matched.
+2019; GAIfO on it is "DACfO"); its controls run the same optimizer through `train_on_reward`
+(`algorithms.controls`), so every comparison among them stays matched.
 
 Each SAC update samples a minibatch from the replay buffer; the discriminator D takes one
 step on it against as many expert transitions, and the critic learns from D's reward for
@@ -29,11 +29,12 @@ from bench.imitation.discriminator import (
     Features,
     RewardingDiscriminatorConfig,
     discriminator_log,
-    discriminator_loss,
+    discriminator_step,
 )
 from bench.imitation.rewards import replay_transitions
 from bench.rl import resume, sac
 from bench.rl.networks import RunningNorm
+from bench.rl.replay import ReplayBatch, transitions_of_step
 
 
 @dataclass
@@ -57,33 +58,24 @@ def sac_budget(config: OffPolicyConfig) -> int:
 
 def expert_replay(
     demos: Demos, actions: tuple[np.ndarray, ...] | None, act_dim: int, absorbing: bool
-) -> sac.ReplayBatch:
-    """Every demonstrated transition, stored as the agent's are (`sac.transitions_of_step`):
+) -> ReplayBatch:
+    """Every demonstrated transition, stored as the agent's are (`transitions_of_step`):
     a terminated demonstration's last step leads into the absorbing loop."""
     rows = []
     for k, o in enumerate(demos.observations):
         a = actions[k] if actions is not None else np.zeros((len(o) - 1, act_dim), np.float32)
         ended = np.zeros(len(o) - 1, bool)
         ended[-1] = demos.terminated[k]
-        rows.append(sac.transitions_of_step(o[:-1], a, o[1:], np.zeros(len(a)), ended, absorbing))
-    return sac.ReplayBatch(*(torch.from_numpy(np.concatenate(x)) for x in zip(*rows, strict=True)))
+        rows.append(transitions_of_step(o[:-1], a, o[1:], np.zeros(len(a)), ended, absorbing))
+    return ReplayBatch(*(torch.from_numpy(np.concatenate(x)) for x in zip(*rows, strict=True)))
 
 
-def sample_of(batch: sac.ReplayBatch, n: int, gen: torch.Generator) -> sac.ReplayBatch:
+def sample_of(batch: ReplayBatch, n: int, gen: torch.Generator) -> ReplayBatch:
     """n rows of `batch` drawn uniformly with replacement. The indices are drawn on the CPU
-    with `gen` whatever the batch's device, so a seed draws the same rows on any device."""
+    with `gen` whatever the batch's device, so a seed draws the same rows on any device (as
+    D's own draws are, `discriminator_loss`)."""
     idx = torch.randint(len(batch.obs), (n,), generator=gen).to(batch.obs.device)
-    return sac.ReplayBatch(*(x[idx] for x in vars(batch).values()))
-
-
-def uniform(shape: tuple[int, ...], gen: torch.Generator, device: torch.device) -> torch.Tensor:
-    """U[0, 1) of `shape` drawn on the CPU with `gen` and moved to `device` (as `sample_of`)."""
-    return torch.rand(shape, generator=gen).to(device)
-
-
-def normal(shape: tuple[int, ...], gen: torch.Generator, device: torch.device) -> torch.Tensor:
-    """N(0, 1) of `shape`, drawn like `uniform`."""
-    return torch.randn(shape, generator=gen).to(device)
+    return ReplayBatch(*(x[idx] for x in vars(batch).values()))
 
 
 class CurrentDReward(resume.Stateful):
@@ -94,7 +86,7 @@ class CurrentDReward(resume.Stateful):
     def __init__(
         self,
         disc: Discriminator,
-        expert: sac.ReplayBatch,
+        expert: ReplayBatch,
         cfg: OffPolicyAdversarialConfig,
         seed: int,
     ) -> None:
@@ -103,22 +95,12 @@ class CurrentDReward(resume.Stateful):
         self.gen = torch.Generator().manual_seed(seed + 2)
         self.reward = REWARDS[cfg.reward]
 
-    def __call__(self, batch: sac.ReplayBatch) -> sac.Logged:
-        disc, cfg = self.disc, self.cfg
+    def __call__(self, batch: ReplayBatch) -> sac.Logged:
+        disc = self.disc
         e_batch = sample_of(self.expert, len(batch.obs), self.gen)
         p = disc.inputs(replay_transitions(batch))
         e = disc.inputs(replay_transitions(e_batch))
-        loss, parts = discriminator_loss(
-            disc.net,
-            p,
-            e,
-            cfg,
-            lambda n: uniform((n, 1), self.gen, p.device),
-            lambda shape: normal(shape, self.gen, p.device),
-        )
-        self.opt.zero_grad()
-        loss.backward()
-        self.opt.step()
+        parts = discriminator_step(disc.net, self.opt, p, e, self.cfg, self.gen)
         with torch.no_grad():  # the reward of this very minibatch, from D as it is now
             rewards = self.reward(disc.net(p).squeeze(-1))
         logged = {**discriminator_log(parts), "reward_mean": rewards.mean().item()}
@@ -210,34 +192,3 @@ def train_gail(
     return train_offpolicy_adversarial(
         task, demos.demos, demos.actions, state_action, budget, seed, logger, config
     )
-
-
-@register(
-    "survival-sac",
-    config=OffPolicyConfig,
-    inputs="none",
-    resumable=True,
-    description="control: SAC on +1 per step alive, no demos",
-    min_budget=sac_budget,
-    role="floor",
-    family="sac",
-    label="Survival (SAC)",
-)
-def train_survival(task: Task, demos: None, budget: int, seed: int, logger: Logger, config):
-    # +1 for every real step (the one into the absorbing state included), 0 on the loop
-    return train_on_reward(task, budget, seed, logger, config, lambda b: (~b.obs_absorbing).float())
-
-
-@register(
-    "oracle-sac",
-    config=OffPolicyConfig,
-    inputs="none",
-    resumable=True,
-    description="control: SAC on the env's reward, no demos",
-    min_budget=sac_budget,
-    role="ceiling",
-    family="sac",
-    label="Oracle (SAC)",
-)
-def train_oracle(task: Task, demos: None, budget: int, seed: int, logger: Logger, config):
-    return train_on_reward(task, budget, seed, logger, config, None)

@@ -34,31 +34,25 @@ import torch
 import torch.nn.functional as F
 from torch import nn
 
-from algorithms.offpolicy import (
-    expert_replay,
-    normal,
-    sac_budget,
-    sample_of,
-    train_on_reward,
-    uniform,
-)
+from algorithms.offpolicy import expert_replay, sac_budget, sample_of, train_on_reward
 from bench.harness.registry import Logger, Policy, Task, register
 from bench.imitation.data import Demos
 from bench.imitation.discriminator import (
     DiscriminatorConfig,
     discriminator_log,
-    discriminator_loss,
+    discriminator_step,
 )
 from bench.rl import sac
 from bench.rl.networks import RunningNorm, mlp
+from bench.rl.replay import ReplayBatch
 from bench.rl.td3 import TD3, TD3Config
 from bench.validate import at_least
 
 
 @dataclass
 class OPOLOConfig(TD3Config, DiscriminatorConfig):
-    """TD3's settings as the authors run it (shared with OPOLO's controls, `algorithms.td3`),
-    D's, and the dual form's and the inverse model's."""
+    """TD3's settings as the authors run it (shared with OPOLO's controls,
+    `algorithms.controls`), D's, and the dual form's and the inverse model's."""
 
     alpha: float = 0.1
     """Weight of the dual form's initial-state term, 2 alpha (1 - gamma) E[min Q(s, pi(s))]."""
@@ -90,7 +84,7 @@ class OPOLOConfig(TD3Config, DiscriminatorConfig):
         at_least(self, 1, "disc_steps", "inverse_steps", "train_every")
 
 
-def normalized_pair(norm: RunningNorm, batch: sac.ReplayBatch) -> torch.Tensor:
+def normalized_pair(norm: RunningNorm, batch: ReplayBatch) -> torch.Tensor:
     """(s, s') of a minibatch, each normalized with the expert's statistics: what D and M read."""
     return torch.cat([norm(batch.raw("obs")), norm(batch.raw("next_obs"))], 1)
 
@@ -103,7 +97,7 @@ class StateTransitionD(nn.Module):
         self.norm = norm
         self.net = mlp([2 * obs_dim, *hidden, 1])
 
-    def inputs(self, batch: sac.ReplayBatch) -> torch.Tensor:
+    def inputs(self, batch: ReplayBatch) -> torch.Tensor:
         return normalized_pair(self.norm, batch)
 
     def forward(self, x: torch.Tensor) -> torch.Tensor:
@@ -118,7 +112,7 @@ class InverseModel(nn.Module):
         self.norm = norm
         self.net = mlp([2 * obs_dim, *hidden, act_dim])
 
-    def forward(self, batch: sac.ReplayBatch) -> torch.Tensor:
+    def forward(self, batch: ReplayBatch) -> torch.Tensor:
         return self.net(normalized_pair(self.norm, batch))
 
 
@@ -149,32 +143,21 @@ class OPOLO(TD3):
     # ------------------------------------------------------------ rewards
 
     @torch.no_grad()
-    def reward(self, batch: sac.ReplayBatch) -> torch.Tensor:
+    def reward(self, batch: ReplayBatch) -> torch.Tensor:
         """-log(1 - D(s, s')) from D as it is now, clipped as the authors' code clips it."""
         d = torch.sigmoid(self.disc(self.disc.inputs(batch)))
         return -torch.log((1 - d).clamp(1e-4, 1.0))
 
-    def _expert_batch(self, n: int) -> sac.ReplayBatch:
+    def _expert_batch(self, n: int) -> ReplayBatch:
         return sample_of(self.expert, n, self.gen)
 
     # ------------------------------------------------------------ D and M
 
     def train_disc(self) -> None:
         for _ in range(self.cfg.disc_steps):
-            agent = self.buffer.sample(self.cfg.batch_size, self.device)
-            p = self.disc.inputs(agent)
+            p = self.disc.inputs(self.buffer.sample(self.cfg.batch_size, self.device))
             e = self.disc.inputs(self._expert_batch(len(p)))
-            loss, parts = discriminator_loss(
-                self.disc.net,
-                p,
-                e,
-                self.cfg,
-                lambda n: uniform((n, 1), self.gen, self.device),
-                lambda shape: normal(shape, self.gen, self.device),
-            )
-            self.disc_opt.zero_grad()
-            loss.backward()
-            self.disc_opt.step()
+            parts = discriminator_step(self.disc.net, self.disc_opt, p, e, self.cfg, self.gen)
         self.stats.update(discriminator_log(parts))
 
     def train_inverse(self, steps: int) -> None:
@@ -188,7 +171,7 @@ class OPOLO(TD3):
 
     # ------------------------------------------------------------ one update
 
-    def update(self, batch: sac.ReplayBatch, rewards: torch.Tensor) -> dict[str, float]:
+    def update(self, batch: ReplayBatch, rewards: torch.Tensor) -> dict[str, float]:
         cfg = self.cfg
         if self.updates == 0:
             self.train_inverse(cfg.inverse_pretrain)

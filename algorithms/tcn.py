@@ -10,7 +10,7 @@ single-view (positives and negatives come from the same demonstration).
    agent's s_{t+1} and d is the mean embedding of the demonstrations' states at step t + 1
    (a finished demonstration holds its last state). We compare s_{t+1}, the state the action
    at step t produced, so the reward reaches the action that earned it rather than one step late.
-3. The policy: the shared TRPO (bench/rl/trpo.py) on that reward; the embedding stays fixed.
+3. The policy: the imitators' TRPO (`trpo_on_reward`) on that reward; the embedding stays fixed.
 
 Termination bias: PyBullet tasks end early when the agent falls, and the reward above is always
 negative, so ending an episode early pays: on InvertedPendulum (100k steps) the agent learns to
@@ -29,21 +29,23 @@ from dataclasses import dataclass
 import numpy as np
 import torch
 
-from bench.harness.learners import deterministic, one_batch, report_each_update
-from bench.harness.registry import Logger, Policy, Task, register, snapshots_of
+from bench.fields import added_later
+from bench.harness.learners import ImitationTRPOConfig, one_batch, trpo_on_reward
+from bench.harness.registry import Logger, Policy, Task, register
 from bench.imitation.data import Demos
 from bench.imitation.embedding import Embedding, EmbeddingConfig, demo_targets, train_embedding
 from bench.rl.rollout import Batch, Rewards
-from bench.rl.shared_trunk import make_trpo
-from bench.rl.trpo import TRPOConfig
-from bench.rl.trpo import train as trpo_train
 from bench.validate import above, at_least
 
 
 @dataclass
-class TCNConfig(TRPOConfig, EmbeddingConfig):
-    """TRPO's settings and the embedding's (inherited, overridable) plus the reward's."""
+class TCNConfig(ImitationTRPOConfig, EmbeddingConfig):
+    """The imitators' TRPO settings and the embedding's (inherited, overridable) plus the
+    reward's."""
 
+    policy_average: float = added_later(0.0)
+    """As the imitators' (`ImitationTRPOConfig`), but off by default: TCN returns its latest
+    policy."""
     reward_alpha: float = 0.5
     """Weight a of the squared embedding distance (alpha in the TCN paper)."""
     reward_beta: float = 0.5
@@ -93,13 +95,5 @@ def train(
         per_step = r.numpy().reshape(batch.rewards.shape)
         return Rewards(per_step, logged={"embed_dist2": dist2.mean().item()})
 
-    learner = trpo_train(
-        task.make_env,
-        budget,
-        seed,
-        reward_fn=reward_fn,
-        callback=report_each_update(task, logger),
-        learner=make_trpo(task.obs_shape, task.act_dim, cfg, seed),
-        snapshots=snapshots_of(logger),  # the reward, fixed once the embedding is trained
-    )
-    return deterministic(learner, task)
+    # the reward is fixed once the embedding is trained: nothing of it to snapshot
+    return trpo_on_reward(task, budget, seed, logger, cfg, reward_fn)

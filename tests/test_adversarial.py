@@ -43,7 +43,7 @@ def test_an_unknown_d_scale_is_refused():
 
 
 def test_a_paused_discriminator_takes_no_step_and_still_reports_its_losses():
-    from algorithms.adversarial import discriminator_step
+    from algorithms.adversarial import DiscriminatorReward
     from bench.imitation.discriminator import Discriminator
     from bench.rl.absorbing import Transitions
 
@@ -51,16 +51,15 @@ def test_a_paused_discriminator_takes_no_step_and_still_reports_its_losses():
         obs = np.random.default_rng(0).normal(loc, 1.0, size=(64, 3)).astype(np.float32)
         return Transitions.real(obs, np.zeros((64, 1), np.float32), obs).map(torch.as_tensor)
 
+    task = Task("X", 3, 1, np.array([-1.0]), np.array([1.0]), make_env=None)
     cfg = AdversarialConfig(disc_steps=3, disc_minibatch=16)
     disc = Discriminator(RunningNorm(3), lambda s, a, s2: torch.cat([s, s2], 1), 3, 1, (8,), True)
-    opt = torch.optim.Adam(disc.parameters(), lr=cfg.disc_lr)
+    reward = DiscriminatorReward(disc, transitions(3.0), task, cfg, seed=0)
     before = [p.detach().clone() for p in disc.parameters()]
-    policy_x, expert_x = transitions(0.0), transitions(3.0)
-    gen = torch.Generator().manual_seed(0)
-    stats = discriminator_step(disc, opt, policy_x, expert_x, cfg, gen, pause=True)
-    assert {"disc_loss", "disc_acc_policy", "disc_acc_expert"} <= set(stats)
+    stats = reward.train_disc(transitions(0.0), pause=True)
+    assert set(stats) == {"disc_loss", "disc_grad_penalty", "disc_acc_policy", "disc_acc_expert"}
     assert all(torch.equal(a, b) for a, b in zip(before, disc.parameters(), strict=True))
-    discriminator_step(disc, opt, policy_x, expert_x, cfg, gen)
+    reward.train_disc(transitions(0.0), pause=False)
     assert not all(torch.equal(a, b) for a, b in zip(before, disc.parameters(), strict=True))
 
 
@@ -108,14 +107,7 @@ def _trained_d(noise: float, seed: int = 0) -> tuple[torch.nn.Module, torch.Gene
     for _ in range(600):
         policy = 0.1 * torch.randn(256, 2, generator=gen)
         expert = policy + torch.tensor([3.0, 0.0])
-        loss, _ = discriminator_loss(
-            net,
-            policy,
-            expert,
-            cfg,
-            lambda n: torch.rand(n, 1, generator=gen),
-            lambda shape: torch.randn(shape, generator=gen),
-        )
+        loss, _ = discriminator_loss(net, policy, expert, cfg, gen)
         opt.zero_grad()
         loss.backward()
         opt.step()
@@ -142,12 +134,13 @@ def test_no_instance_noise_draws_nothing_so_earlier_runs_stay_bit_identical():
     from bench.imitation.discriminator import DiscriminatorConfig, discriminator_loss
     from bench.rl.networks import mlp
 
-    drawn = []
+    gen = torch.Generator().manual_seed(0)
+    before = gen.get_state()
     cfg = DiscriminatorConfig(grad_penalty=0.0)
     net = mlp([2, 8, 1])
     rows = torch.zeros(4, 2)
-    discriminator_loss(net, rows, rows, cfg, lambda n: torch.rand(n, 1), drawn.append)
-    assert drawn == []
+    discriminator_loss(net, rows, rows, cfg, gen)
+    assert torch.equal(gen.get_state(), before)
     with pytest.raises(ValueError, match="disc_noise must be"):
         DiscriminatorConfig(disc_noise=-0.1)
 

@@ -10,7 +10,7 @@ from bench.harness import registry, store
 from bench.harness.runner import run_suite
 from bench.harness.suite import load_suite
 from bench.imitation.rewards import replay_transitions
-from bench.rl import sac
+from bench.rl import replay, sac
 from bench.rl.absorbing import FLAG
 
 PENDULUM = "InvertedPendulumBulletEnv-v0"
@@ -23,7 +23,7 @@ def test_a_termination_leads_into_the_absorbing_loop_and_a_truncation_does_not()
     obs, next_obs = np.ones((3, 2), np.float32), np.full((3, 2), 2.0, np.float32)
     actions = np.full((3, 1), 0.5, np.float32)
     terminated = np.array([False, True, False])  # env 2 may have been truncated: not an end
-    s, a, s_next, r, not_done = sac.transitions_of_step(
+    s, a, s_next, r, not_done = replay.transitions_of_step(
         obs, actions, next_obs, np.array([1.0, 1.0, 1.0]), terminated, absorbing=True
     )
     assert len(s) == 4  # three steps, and the loop once for the one termination
@@ -31,7 +31,7 @@ def test_a_termination_leads_into_the_absorbing_loop_and_a_truncation_does_not()
     assert s[3].tolist() == s_next[3].tolist() == [0.0, 0.0, FLAG]
     assert a[3].tolist() == [0.0] and r.tolist() == [1.0, 1.0, 1.0, 0.0]
     assert not_done.tolist() == [1.0] * 4  # nothing masked: the loop's reward decides
-    _, _, _, _, masked = sac.transitions_of_step(
+    _, _, _, _, masked = replay.transitions_of_step(
         obs, actions, next_obs, np.ones(3), terminated, absorbing=False
     )
     assert masked.tolist() == [1.0, 0.0, 1.0]
@@ -70,7 +70,7 @@ def test_rewards_come_from_the_current_discriminator(pendulum):
     norm.update(np.concatenate(demos.observations))
     disc = offpolicy.Discriminator(norm, offpolicy.state_transition, obs_dim, 1, (16, 16), True)
     reward_fn = offpolicy.CurrentDReward(disc, expert, cfg, 0)
-    batch = sac.ReplayBatch(*(x[:32] for x in vars(expert).values()))  # any transitions
+    batch = replay.ReplayBatch(*(x[:32] for x in vars(expert).values()))  # any transitions
     out = reward_fn(batch)
     first = out.rewards
     with torch.no_grad():
@@ -136,7 +136,7 @@ def test_opolo_rewards_come_from_the_current_discriminator_and_its_dual_term_low
     n = 512
     obs = rng.normal(size=(n, task.obs_dim)).astype(np.float32)
     acts = rng.uniform(-1, 1, size=(n, task.act_dim)).astype(np.float32)
-    steps = sac.transitions_of_step(obs, acts, obs + 0.1, np.zeros(n), np.zeros(n, bool), False)
+    steps = replay.transitions_of_step(obs, acts, obs + 0.1, np.zeros(n), np.zeros(n, bool), False)
     learner.buffer.add(*steps)
     batch = learner.buffer.sample(64)
     before = learner.reward(batch)

@@ -15,7 +15,7 @@ from bench.harness.learners import ImitationTRPOConfig, one_batch, trpo_on_rewar
 from bench.harness.trial import plan, run_trial
 from bench.harness.types import TrialSpec
 from bench.imitation.rewards import on_sac, on_trpo
-from bench.rl import sac
+from bench.rl import replay
 from bench.rl.absorbing import Transitions
 from bench.rl.rollout import VecCollector
 
@@ -48,10 +48,10 @@ def test_on_sac_pays_each_replay_row_with_the_absorbing_state_flagged():
     obs = np.array([[0.5, 1.0], [0.25, 2.0]], np.float32)
     next_obs = np.array([[0.75, 1.0], [0.125, 2.0]], np.float32)
     actions = np.zeros((2, 1), np.float32)
-    rows = sac.transitions_of_step(
+    rows = replay.transitions_of_step(
         obs, actions, next_obs, np.zeros(2), np.array([False, True]), True
     )
-    batch = sac.ReplayBatch(*(torch.from_numpy(x) for x in rows))
+    batch = replay.ReplayBatch(*(torch.from_numpy(x) for x in rows))
     got = on_sac(first_coordinate)(batch)
     # the live step, the terminated one (into the absorbing state), the absorbing loop
     assert got.tolist() == [0.75, -1.0, -1.0]

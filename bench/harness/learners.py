@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import copy
 from dataclasses import dataclass
+from typing import Any
 
 import torch
 
@@ -19,18 +20,14 @@ from bench.rl.trpo import TRPO, OnUpdate, TRPOConfig, train
 
 @dataclass
 class ImitationTRPOConfig(TRPOConfig):
-    """TRPO as the imitators run it. GAIfO and GAIL extend it and the `survival` control runs it
-    as is, so a default changed here changes for the control too: it stays matched."""
+    """TRPO as the imitators run it. GAIfO, GAIL and TCN extend it and the TRPO controls run it
+    as is, so a default changed here changes for the controls too: they stay matched."""
 
     init_log_std: float = 0.0
-    """Action noise at the start (log of the Gaussian's std). Measured with absorbing states and
-    the signed reward on InvertedPendulum (100k, 1 demo, 10 seeds): at -0.5 two GAIfO seeds and
-    one GAIL seed fell back after reaching the expert, at 0.0 none of the seeds measured did."""
+    """Action noise at the start (log of the Gaussian's std; docs/design/settings.md)."""
     policy_average: float = 0.9
-    """Decay per update of an exponential moving average of the policy's weights, which is what
-    is evaluated and returned (PolicyAverage); 0 returns the latest policy. Measured on
-    InvertedPendulum (100k, 1 and 5 demos, 10 seeds each): seeds below 0.95 went from 3 of 20
-    to 0 (GAIfO) and from 5 of 20 to 2 (GAIL) with 0.9."""
+    """Decay per update of the moving average of the policy's weights that is evaluated and
+    returned (`PolicyAverage`); 0: the latest policy (docs/design/settings.md)."""
 
     def __post_init__(self) -> None:
         super().__post_init__()
@@ -115,15 +112,20 @@ def trpo_on_reward(
     logger: Logger,
     config: ImitationTRPOConfig,
     reward_fn: RewardFn | None,
+    learner: TRPO | None = None,
 ) -> DeterministicPolicy:
     """The imitators' TRPO, with their settings and their averaged policy, on `reward_fn` (None:
-    the env's own reward, as the `oracle` control): what a learner with a reward of its own
-    needs, and what the controls run. Resumable as every built-in loop is: a reward that learns
-    as it goes is an object with `state_dict` and `load_state_dict` (`bench.rl.resume.Stateful`),
-    saved with the learner; a plain function is taken to be fixed."""
-    learner = make_trpo(task.obs_shape, task.act_dim, config, seed)
+    the env's own reward, as the `oracle` control): the one path from a reward to TRPO, which
+    every TRPO learner and control takes. `learner`: one built beforehand (`make_trpo`), for a
+    reward that shares its observation statistics (GAIfO's D). Resumable as every built-in loop
+    is: a reward that learns as it goes is an object with `state_dict` and `load_state_dict`
+    (`bench.rl.resume.Stateful`), saved with the learner; a plain function is taken to be fixed."""
+    learner = learner or make_trpo(task.obs_shape, task.act_dim, config, seed)
     average = PolicyAverage(config.policy_average, like=learner.policy)
-    learns = hasattr(reward_fn, "state_dict")
+    # At 0 the average is the latest policy, which is saved with the learner.
+    keep: dict[str, Any] = {"average": average} if config.policy_average > 0 else {}
+    if hasattr(reward_fn, "state_dict"):
+        keep["reward"] = reward_fn
     train(
         task.make_env,
         budget,
@@ -132,6 +134,6 @@ def trpo_on_reward(
         callback=report_each_update(task, logger, average=average),
         learner=learner,
         snapshots=snapshots_of(logger),
-        keep={"reward": reward_fn, "average": average} if learns else {"average": average},
+        keep=keep,
     )
     return average.policy(learner, task)

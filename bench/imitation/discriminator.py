@@ -1,7 +1,8 @@
 """One discriminator for every adversarial learner, on-policy or off: its settings
 (`DiscriminatorConfig`), its network (`Discriminator`, over any features of a transition), one
-loss (`discriminator_loss`) and what is logged of it, the rewards it gives, and the expert's side
-of its data (`expert_transitions`).
+loss (`discriminator_loss`), one training step (`discriminator_step`) and what is logged of it
+(`discriminator_log`), the rewards it gives, and the expert's side of its data
+(`expert_transitions`).
 
 D outputs the logit of P(expert | transition). Training is binary cross-entropy with the expert
 labelled 1, plus a gradient penalty on interpolates that keeps D smooth, so the policy's reward
@@ -35,7 +36,7 @@ REWARDS: dict[str, Callable[[torch.Tensor], torch.Tensor]] = {
 class DiscriminatorConfig:
     """D's settings, the same fields and checks for every adversarial learner whatever its
     optimizer (TRPO's GAIfO and GAIL, SAC's, OPOLO's TD3): one D, one training step
-    (`discriminator_loss`)."""
+    (`discriminator_step`)."""
 
     disc_hidden: tuple[int, ...] = (100, 100)
     """Hidden layer sizes of the discriminator MLP (tanh)."""
@@ -49,17 +50,11 @@ class DiscriminatorConfig:
     """Weight of a bonus on the entropy of D's predictions, which keeps D from certainty
     (OPOLO's 0.001); 0: none."""
     disc_noise: float = added_later(0.0)
-    """Instance noise: the std of Gaussian noise added to both sides' (normalized) feature rows
-    while D trains, not when it rewards. Where the two sides' supports barely overlap D
-    separates them perfectly and its reward goes flat over the policy's states; blurred, the
-    boundary stays a slope that points to the expert's states (Sønderby et al. 2017, Arjovsky
-    and Bottou 2017). 0: none."""
+    """Instance noise: the std of Gaussian noise added to both sides' normalized feature rows
+    while D trains, not when it rewards; 0: none (docs/design/settings.md)."""
     disc_obs_dims: int | None = added_later(None)
-    """D judges only the first this many entries of each state vector (of s and s'; the policy
-    still sees all of them); None: all. For observations whose tail D should not judge, as
-    Ant-v5's 78 contact forces after its 27 positions and velocities: where only the feet
-    ever touch the ground, those entries are zero for the expert and spike wherever the
-    policy touches it otherwise. States only, not frames."""
+    """D judges only the first this many entries of each state vector (the policy still sees
+    all of them); None: all. States only, not frames (docs/design/settings.md)."""
 
     def __post_init__(self) -> None:
         layers(self, "disc_hidden")
@@ -88,21 +83,19 @@ def discriminator_loss(
     policy: torch.Tensor,
     expert: torch.Tensor,
     cfg: DiscriminatorConfig,
-    mix_weights: Callable[[int], torch.Tensor],
-    normal: Callable[[torch.Size], torch.Tensor] | None = None,
+    gen: torch.Generator,
 ) -> tuple[torch.Tensor, dict[str, torch.Tensor]]:
     """D's loss on one minibatch of each side, (N, F) feature rows of the policy's and the
     expert's, and its parts: binary cross-entropy with the expert labelled 1, less
     `disc_entropy` times the entropy of D's predictions, plus `grad_penalty` times
-    (||grad D|| - gp_target)^2 on random interpolates (`mix_weights(N)` -> (N, 1) in [0, 1),
-    drawn only where there is a penalty). `net` maps rows to (N, 1) logits. With `disc_noise`,
-    both sides' rows first get `disc_noise` times `normal(shape)` (standard normal draws) added,
-    the penalty's interpolates between the noisy rows."""
+    (||grad D|| - gp_target)^2 on random interpolates. `net` maps rows to (N, 1) logits. With
+    `disc_noise`, both sides' rows first get Gaussian noise of that std added, the penalty's
+    interpolates between the noisy rows. The noise and the interpolation weights are drawn
+    from `gen` on the CPU whatever the rows' device (so a seed draws the same numbers
+    anywhere), and only where they are used (so a run without them draws what it always did)."""
     if cfg.disc_noise > 0:
-        if normal is None:
-            raise ValueError("disc_noise needs the caller's normal draws")
-        policy = policy + cfg.disc_noise * normal(policy.shape)
-        expert = expert + cfg.disc_noise * normal(expert.shape)
+        policy = policy + cfg.disc_noise * normal_like(policy, gen)
+        expert = expert + cfg.disc_noise * normal_like(expert, gen)
     logit_p, logit_e = net(policy).squeeze(-1), net(expert).squeeze(-1)
     bce = F.binary_cross_entropy_with_logits(
         logit_p, torch.zeros_like(logit_p)
@@ -119,7 +112,7 @@ def discriminator_loss(
     if cfg.grad_penalty > 0:
         # On normalized inputs: raw PyBullet features with tiny variance would make the
         # gradient w.r.t. raw inputs huge and the penalty would swamp the classifier.
-        alpha = mix_weights(len(policy))
+        alpha = torch.rand(len(policy), 1, generator=gen).to(policy.device)
         mix = (alpha * expert + (1 - alpha) * policy).detach().requires_grad_(True)
         grad = torch.autograd.grad(net(mix).sum(), mix, create_graph=True)[0]
         penalty = (grad.norm(dim=1) - cfg.gp_target).square().mean()
@@ -127,8 +120,35 @@ def discriminator_loss(
     return loss, {"bce": bce, "penalty": penalty, "logit_p": logit_p, "logit_e": logit_e}
 
 
+def normal_like(rows: torch.Tensor, gen: torch.Generator) -> torch.Tensor:
+    """Standard normal draws of `rows`' shape, from `gen` on the CPU, on `rows`' device."""
+    return torch.randn(rows.shape, generator=gen).to(rows.device)
+
+
+def discriminator_step(
+    net: nn.Module,
+    opt: torch.optim.Optimizer,
+    policy: torch.Tensor,
+    expert: torch.Tensor,
+    cfg: DiscriminatorConfig,
+    gen: torch.Generator,
+    learn: bool = True,
+) -> dict[str, torch.Tensor]:
+    """One training step of D, whatever the learner: `opt`'s step on `discriminator_loss` of
+    one minibatch of each side ((N, F) feature rows), and the loss's parts, for
+    `discriminator_log`. `learn=False`: the parts alone, D left as it is."""
+    loss, parts = discriminator_loss(net, policy, expert, cfg, gen)
+    if learn:
+        opt.zero_grad()
+        loss.backward()
+        opt.step()
+    return parts
+
+
 def discriminator_log(parts: dict[str, torch.Tensor]) -> dict[str, float]:
-    """What every adversarial learner logs of D's last step."""
+    """What every adversarial learner logs of D's last step, by name: its cross-entropy
+    (`disc_loss`) and the share of each side's rows it tells right (`disc_acc_policy`,
+    `disc_acc_expert`)."""
     return {
         "disc_loss": parts["bce"].item(),
         "disc_acc_policy": (parts["logit_p"] < 0).float().mean().item(),

@@ -17,7 +17,7 @@ from collections.abc import Callable
 import numpy as np
 import torch
 
-from bench.rl import absorbing, sac
+from bench.rl import absorbing, replay, sac
 from bench.rl.absorbing import Transitions
 from bench.rl.rollout import Batch, RewardFn, Rewards
 
@@ -76,7 +76,7 @@ def on_trpo(reward: TransitionReward, low: np.ndarray, high: np.ndarray, gamma: 
     return reward_fn
 
 
-def replay_transitions(batch: sac.ReplayBatch) -> Transitions:
+def replay_transitions(batch: replay.ReplayBatch) -> Transitions:
     """A replay minibatch as a reward reads transitions."""
     return Transitions(
         batch.raw("obs"),
@@ -92,7 +92,7 @@ def on_sac(reward: TransitionReward) -> sac.SACRewardFn:
     """`reward` as SAC's loop asks for it (`bench.rl.sac.train`'s `reward_fn`), on every
     replay minibatch the critic learns from."""
 
-    def reward_fn(batch: sac.ReplayBatch) -> torch.Tensor:
+    def reward_fn(batch: replay.ReplayBatch) -> torch.Tensor:
         with torch.no_grad():
             return reward(replay_transitions(batch))
 

@@ -1,18 +1,17 @@
 """Soft Actor-Critic (Haarnoja et al. 2018), the off-policy optimizer, with absorbing states.
 
-Reads top to bottom: config, the replay buffer, the networks, one update, and the training
-loop. As with TRPO (`bench.rl.trpo`) the reward is pluggable: `reward_fn(batch)` is called on
-every minibatch the critic learns from, so a learned reward is always the current one (DAC's
-recipe, Kostrikov et al. 2019) rather than the one in force when the step was taken.
+Reads top to bottom: config, the networks, one update, and the training loop; the replay
+buffer it learns from is `bench.rl.replay`. As with TRPO (`bench.rl.trpo`) the reward is
+pluggable: `reward_fn(batch)` is called on every minibatch the critic learns from, so a learned
+reward is always the current one (DAC's recipe, Kostrikov et al. 2019) rather than the one in
+force when the step was taken.
 
 Terminations. With `absorbing` (the default), an episode that terminates leads into an
-absorbing state that loops on itself for ever, as DAC stores it: the last step is stored as
-(s, a, s_a) and the loop once as (s_a, 0, s_a), and nothing is masked as "done", so the reward
-of the absorbing state, whatever a learned reward makes of it, decides what ending an episode
-is worth (`bench.rl.absorbing` says why). An absorbing observation is all zeros with a flag
-set; every network reads observations with that flag appended. Truncation (a time limit) is
-not an end: it bootstraps as usual. With `absorbing: false` a termination is masked (Q of
-what follows is 0), the textbook SAC.
+absorbing state that loops on itself for ever, as DAC stores it (`bench.rl.replay`), and
+nothing is masked as "done", so the reward of the absorbing state, whatever a learned reward
+makes of it, decides what ending an episode is worth (`bench.rl.absorbing` says why).
+Truncation (a time limit) is not an end: it bootstraps as usual. With `absorbing: false` a
+termination is masked (Q of what follows is 0), the textbook SAC.
 """
 
 from __future__ import annotations
@@ -22,7 +21,7 @@ import math
 import time
 from collections.abc import Callable, Iterable, Iterator
 from contextlib import contextmanager
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass, field
 from typing import Any, Protocol
 
 import gymnasium as gym
@@ -31,10 +30,10 @@ import torch
 import torch.nn.functional as F
 from torch import nn
 
-from bench.rl.absorbing import FLAG
 from bench.rl.networks import mlp
+from bench.rl.replay import ReplayBatch, ReplayBuffer, flagged, transitions_of_step
 from bench.rl.resume import TORCH_RNG, Resumable, Snapshots, Stateful
-from bench.rl.rollout import VecCollector
+from bench.rl.rollout import Batch, VecCollector
 from bench.validate import layers
 
 
@@ -79,114 +78,6 @@ class SACConfig:
             raise ValueError("need 0 < gamma < 1, 0 < tau <= 1 and lr > 0")
         if self.updates_per_step <= 0 or self.learning_starts < 0:
             raise ValueError("need updates_per_step > 0 and learning_starts >= 0")
-
-
-# ---------------------------------------------------------------- replay
-
-
-@dataclass
-class ReplayBatch:
-    """A minibatch of transitions as torch tensors; observations with the absorbing flag last."""
-
-    obs: torch.Tensor
-    """(B, O+1)"""
-    actions: torch.Tensor
-    """(B, A); zeros on the absorbing loop."""
-    next_obs: torch.Tensor
-    """(B, O+1)"""
-    env_rewards: torch.Tensor
-    """(B,) the env's reward; 0 into and on the absorbing loop after it."""
-    not_done: torch.Tensor
-    """(B,) 0 where a termination is masked (absorbing off), else 1."""
-
-    def to(self, device: torch.device | str) -> ReplayBatch:
-        return ReplayBatch(*(x.to(device) for x in vars(self).values()))
-
-    @property
-    def obs_absorbing(self) -> torch.Tensor:
-        return self.obs[:, -1] > 0
-
-    @property
-    def next_absorbing(self) -> torch.Tensor:
-        return self.next_obs[:, -1] > 0
-
-    def raw(self, which: str) -> torch.Tensor:
-        """`obs` or `next_obs` without the flag column."""
-        return getattr(self, which)[:, :-1]
-
-
-class ReplayBuffer:
-    """A ring buffer of transitions in preallocated arrays; observations stored with their flag."""
-
-    def __init__(self, obs_dim: int, act_dim: int, size: int, seed: int) -> None:
-        self.obs = np.zeros((size, obs_dim + 1), np.float32)
-        self.next_obs = np.zeros((size, obs_dim + 1), np.float32)
-        self.actions = np.zeros((size, act_dim), np.float32)
-        self.env_rewards = np.zeros(size, np.float32)
-        self.not_done = np.ones(size, np.float32)
-        self.size, self.count, self.cursor = size, 0, 0
-        self.rng = np.random.default_rng(seed)
-
-    def add(self, obs, actions, next_obs, env_rewards, not_done) -> None:
-        """Append n rows (observations (n, O+1), flag included), overwriting the oldest."""
-        rows = (self.cursor + np.arange(len(obs))) % self.size
-        self.obs[rows], self.actions[rows], self.next_obs[rows] = obs, actions, next_obs
-        self.env_rewards[rows], self.not_done[rows] = env_rewards, not_done
-        self.cursor = int(rows[-1] + 1) % self.size
-        self.count = min(self.count + len(obs), self.size)
-
-    def sample(self, n: int, device: torch.device | str = "cpu") -> ReplayBatch:
-        idx = self.rng.integers(self.count, size=n)
-        return ReplayBatch(*(torch.from_numpy(x[idx]).to(device) for x in self._fields()))
-
-    def _fields(self) -> tuple[np.ndarray, ...]:
-        return self.obs, self.actions, self.next_obs, self.env_rewards, self.not_done
-
-    def state_dict(self) -> dict:
-        """The rows filled so far (as tensors: weights_only-safe), the cursor and the RNG."""
-        rows = [torch.from_numpy(x[: self.count].copy()) for x in self._fields()]
-        return {"rows": rows, "cursor": self.cursor, "rng": self.rng.bit_generator.state}
-
-    def load_state_dict(self, state: dict) -> None:
-        rows = state["rows"]
-        self.count, self.cursor = len(rows[0]), state["cursor"]
-        for field_, saved in zip(self._fields(), rows, strict=True):
-            field_[: self.count] = saved.numpy()
-        self.rng.bit_generator.state = state["rng"]
-
-
-def flagged(obs: np.ndarray, absorbing: bool = False) -> np.ndarray:
-    """(n, O) observations -> (n, O+1): the flag column appended (FLAG and zeros if absorbing)."""
-    obs = np.asarray(obs, np.float32).reshape(len(obs), -1)
-    if absorbing:
-        out = np.zeros((len(obs), obs.shape[1] + 1), np.float32)
-        out[:, -1] = FLAG
-        return out
-    return np.concatenate([obs, np.zeros((len(obs), 1), np.float32)], axis=1)
-
-
-def transitions_of_step(obs, actions, next_obs, rewards, terminated, absorbing: bool) -> tuple:
-    """One vectorized env step's rows for the buffer: (obs, actions, next_obs, rewards,
-    not_done), each (n, ...). A terminated env's row leads into the absorbing state, and the
-    absorbing loop is added once (with `absorbing`), or is masked (without)."""
-    n, act_dim = len(obs), actions.shape[1]
-    s, s_next = flagged(obs), flagged(next_obs)
-    not_done = np.ones(n, np.float32)
-    rewards = np.asarray(rewards, np.float32)
-    if not absorbing:
-        return s, actions, s_next, rewards, np.where(terminated, 0.0, 1.0).astype(np.float32)
-    ended = np.flatnonzero(terminated)
-    if len(ended) == 0:
-        return s, actions, s_next, rewards, not_done
-    s_next[ended] = flagged(next_obs[ended], absorbing=True)
-    loop = flagged(np.zeros((len(ended), obs.shape[1])), absorbing=True)
-    return (
-        np.concatenate([s, loop]),
-        np.concatenate([actions, np.zeros((len(ended), act_dim), np.float32)]),
-        np.concatenate([s_next, loop]),
-        np.concatenate([rewards, np.zeros(len(ended), np.float32)]),
-        np.ones(n + len(ended), np.float32),
-    )
 
 
 # ---------------------------------------------------------------- networks
@@ -410,6 +301,51 @@ OnReport = Callable[[int, SAC, dict[str, float]], None]
 updating so far), every `report_every` env steps."""
 
 
+@dataclass
+class Progress:
+    """The loop's counters, all that a snapshot restarts it from besides the learner."""
+
+    steps: int
+    """Env steps taken."""
+    next_report: int
+    """Env steps at which the callback runs next."""
+    owed: float = 0.0
+    """Updates owed (`updates_per_step` per env step), paid in whole updates."""
+    info: dict[str, float] = field(default_factory=dict)
+    """What the last update logged."""
+    clock: dict[str, float] = field(default_factory=lambda: {"collect_s": 0.0, "update_s": 0.0})
+    """Seconds spent collecting and updating so far."""
+
+
+def store_step(buffer: ReplayBuffer, step: Batch, absorbing: bool) -> None:
+    """One step of every env (`VecCollector.run(act, 1)`: arrays (1, E, ...)) into `buffer`."""
+    rows = transitions_of_step(
+        step.obs[0],
+        step.actions[0],
+        step.next_obs[0],
+        step.rewards[0],
+        step.terminated[0],
+        absorbing,
+    )
+    buffer.add(*rows)
+
+
+def update_on(
+    learner: OffPolicyLearner, batch: ReplayBatch, reward: SACRewardFn
+) -> dict[str, float]:
+    """One update of `learner` on `batch`, rewarded by `reward`; what to log of it (the
+    reward's own diagnostics first, where it gives `Logged` rewards)."""
+    rewards = reward(batch)
+    if isinstance(rewards, Logged):
+        return {**rewards.logged, **learner.update(batch, rewards.rewards)}
+    return learner.update(batch, rewards)
+
+
+def env_reward(batch: ReplayBatch) -> torch.Tensor:
+    """The env's own reward (0 into and on the absorbing loop)."""
+    return batch.env_rewards
+
+
 def train(
     make_env: Callable[[int], gym.Env],
     budget: int,
@@ -432,66 +368,43 @@ def train(
     collector = VecCollector([make_env(seed * 1000 + i) for i in range(cfg.n_envs)], seed * 1000)
     n_envs, low, high = len(collector.envs), collector.low, collector.high
     learner = learner or SAC(collector.obs.shape[1], len(low), low, high, cfg, seed)
-    buffer = learner.buffer
     rng = np.random.default_rng(seed)
-    reward = reward_fn or (lambda batch: batch.env_rewards)
-    steps, owed, info, next_report = 0, 0.0, {}, report_every
-    clock = {"collect_s": 0.0, "update_s": 0.0}
+    reward = reward_fn or env_reward
     # What learns besides the learner: a reward with a state of its own (D), and the loop.
     extra = {"reward": reward} if hasattr(reward, "state_dict") else {}
-
-    def act(obs: np.ndarray) -> np.ndarray:
-        """Uniform random actions for the first `learning_starts` steps, then the actor's."""
-        if steps < cfg.learning_starts:
-            return rng.uniform(low, high, size=(len(obs), len(low))).astype(np.float32)
-        with torch.no_grad():
-            return learner.explore(torch.from_numpy(flagged(obs)).to(learner.device)).cpu().numpy()
-
     resume = Resumable(
         snapshots,
         parts={"learner": learner, **extra, "rng": rng, "torch_rng": TORCH_RNG},
         replayed={"collector": collector},
     )
-    if (resumed := resume.restore()) is not None:
-        loop = resumed["loop"]
-        steps, owed, info = loop["steps"], loop["owed"], loop["info"]
-        next_report, clock = loop["next_report"], loop["clock"]
+    resumed = resume.restore()
+    at = Progress(0, report_every) if resumed is None else Progress(**resumed["loop"])
 
-    def counters() -> dict[str, Any]:
-        loop = {"steps": steps, "owed": owed, "info": info, "next_report": next_report}
-        return {"loop": {**loop, "clock": clock}}
+    def act(obs: np.ndarray) -> np.ndarray:
+        """Uniform random actions for the first `learning_starts` steps, then the actor's."""
+        if at.steps < cfg.learning_starts:
+            return rng.uniform(low, high, size=(len(obs), len(low))).astype(np.float32)
+        with torch.no_grad():
+            return learner.explore(torch.from_numpy(flagged(obs)).to(learner.device)).cpu().numpy()
 
     try:
-        while steps + n_envs <= budget:
+        while at.steps + n_envs <= budget:
             t0 = time.perf_counter()
-            step = collector.run(act, 1)  # one step of every env: arrays (1, E, ...)
-            rows = transitions_of_step(
-                step.obs[0],
-                step.actions[0],
-                step.next_obs[0],
-                step.rewards[0],
-                step.terminated[0],
-                cfg.absorbing,
-            )
-            buffer.add(*rows)
-            steps += n_envs
-            clock["collect_s"] += time.perf_counter() - t0
+            store_step(learner.buffer, collector.run(act, 1), cfg.absorbing)
+            at.steps += n_envs
             t1 = time.perf_counter()
-            if steps >= cfg.learning_starts:
-                owed += cfg.updates_per_step * n_envs
-                while owed >= 1:
-                    batch = buffer.sample(cfg.batch_size, learner.device)
-                    rewards = reward(batch)
-                    if isinstance(rewards, Logged):
-                        info = {**rewards.logged, **learner.update(batch, rewards.rewards)}
-                    else:
-                        info = learner.update(batch, rewards)
-                    owed -= 1
-            clock["update_s"] += time.perf_counter() - t1
-            if callback is not None and steps >= next_report:
-                callback(steps, learner, {**info, **clock})
-                next_report += report_every
-            resume.save_if_due(counters, room=steps + n_envs <= budget)
+            at.clock["collect_s"] += t1 - t0
+            if at.steps >= cfg.learning_starts:
+                at.owed += cfg.updates_per_step * n_envs
+                while at.owed >= 1:
+                    batch = learner.buffer.sample(cfg.batch_size, learner.device)
+                    at.info = update_on(learner, batch, reward)
+                    at.owed -= 1
+            at.clock["update_s"] += time.perf_counter() - t1
+            if callback is not None and at.steps >= at.next_report:
+                callback(at.steps, learner, {**at.info, **at.clock})
+                at.next_report += report_every
+            resume.save_if_due(lambda: {"loop": asdict(at)}, room=at.steps + n_envs <= budget)
     finally:
         collector.close()
     return learner

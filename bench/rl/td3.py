@@ -15,7 +15,7 @@ from typing import Any
 
 import torch
 
-from bench.rl import sac
+from bench.rl import replay, sac
 from bench.rl.resume import Stateful
 from bench.validate import at_least
 
@@ -52,7 +52,7 @@ class TD3(Stateful):
         self.critic_target = copy.deepcopy(self.critic)
         self.actor_opt = torch.optim.Adam(self.actor.parameters(), lr=cfg.lr, foreach=True)
         self.critic_opt = torch.optim.Adam(self.critic.parameters(), lr=cfg.lr, foreach=True)
-        self.buffer = sac.ReplayBuffer(obs_dim, act_dim, cfg.buffer_size, seed)
+        self.buffer = replay.ReplayBuffer(obs_dim, act_dim, cfg.buffer_size, seed)
         self.critic_params = list(self.critic.parameters())
         self.targets = [*self.actor_target.parameters(), *self.critic_target.parameters()]
         self.followed = [*self.actor.parameters(), *self.critic_params]
@@ -80,7 +80,7 @@ class TD3(Stateful):
         low, high = self.actor.centre - self.actor.scale, self.actor.centre + self.actor.scale
         return torch.maximum(torch.minimum(action + noise * self.actor.scale, high), low)
 
-    def update(self, batch: sac.ReplayBatch, rewards: torch.Tensor) -> dict[str, float]:
+    def update(self, batch: replay.ReplayBatch, rewards: torch.Tensor) -> dict[str, float]:
         cfg = self.cfg
         self.updates += 1
         with torch.no_grad():
