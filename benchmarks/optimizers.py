@@ -15,13 +15,13 @@ import sys
 import pandas as pd
 
 from bench.analysis import labels, markdown, normalize, stats
-from bench.harness import store
+from bench.harness import frames
 
 
 def scores(folder: str, algorithm: str, n_demos: int) -> pd.DataFrame:
     """One row per ok trial of `algorithm` at `n_demos` in `folder` (at 0 for a control, which
     takes none): env_id, seed, budget, normalized score and wall time."""
-    df = normalize.normalize(store.load(folder))
+    df = normalize.normalize(frames.load(folder))
     at_count = (df["n_demos"] == n_demos) | normalize.demo_free(df)
     mine = df[(df["algorithm"] == algorithm) & (df["status"] == "ok") & at_count]
     if mine.empty:

@@ -18,7 +18,7 @@ import math
 import numpy as np
 import pandas as pd
 
-from bench.harness import store
+from bench.harness import frames
 
 
 def plateau_step(curve: pd.Series, level: float, window: int, tail: int) -> float:
@@ -41,7 +41,7 @@ def main() -> None:
     parser.add_argument("--window", type=int, default=1_000_000)
     parser.add_argument("--tail", type=int, default=2_000_000)
     args = parser.parse_args()
-    curves = store.load_curves(args.results)
+    curves = frames.load_curves(args.results)
     curves = curves[curves.algorithm == args.algorithm]
     levels = sorted({0.90, 0.95, 0.98, args.level})
     print(

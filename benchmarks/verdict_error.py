@@ -21,7 +21,7 @@ import numpy as np
 
 from bench.analysis import agreement
 from bench.analysis.normalize import normalize
-from bench.harness import store
+from bench.harness import frames
 
 
 def main() -> None:
@@ -34,7 +34,7 @@ def main() -> None:
     print(f"{len(halves)} splits of 10 seeds into 5 against 5 per cell")
     print(f"{'folder':20s}{'cells':>6s}{'old: differs':>14s}{'now: differs':>14s}  worst cell now")
     for folder in args.folders:
-        frame = normalize(store.load(folder))
+        frame = normalize(frames.load(folder))
         old, new, worst = [], [], (0.0, "")
         for key, cell in frame.groupby(["env_id", "algorithm", "n_demos"]):
             scores = cell.sort_values("seed")["normalized"].dropna().to_numpy()

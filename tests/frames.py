@@ -1,4 +1,4 @@
-"""Hand-built frames of records, as `bench.harness.store.load` gives them."""
+"""Hand-built frames of records, as `bench.harness.frames.load` gives them."""
 
 from __future__ import annotations
 

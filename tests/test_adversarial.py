@@ -4,7 +4,7 @@ import torch
 
 from algorithms.adversarial import AdversarialConfig, disc_normalizer, floor_absorbing
 from bench.envs.pixels import PixelConfig
-from bench.harness import store
+from bench.harness import frames
 from bench.harness.registry import Task
 from bench.imitation.data import Demos
 from bench.imitation.discriminator import REWARDS
@@ -201,6 +201,6 @@ def test_the_absorbing_floor_reaches_the_on_policy_loop(tmp_path, cli):
     run_on_the_pendulum(
         tmp_path, cli, "{algorithm: gaifo, absorbing_floor: mean, n_envs: 2, steps_per_env: 256}"
     )
-    logs = store.load_logs(tmp_path / "res").pivot(index="index", columns="key", values="value")
+    logs = frames.load_logs(tmp_path / "res").pivot(index="index", columns="key", values="value")
     assert len(logs) == 2
     np.testing.assert_allclose(logs["absorbing_floor"], logs["reward_mean"], rtol=1e-5)

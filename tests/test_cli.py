@@ -3,6 +3,7 @@
 from pathlib import Path
 
 import pytest
+from folders import copy_folder
 
 PENDULUM = "InvertedPendulumBulletEnv-v0"
 GOOD = (
@@ -378,10 +379,8 @@ def test_a_full_disk_is_one_line_and_leaves_nothing_partial(command, tmp_path):
     import subprocess
     import sys
 
-    from bench.harness import store
-
     reference = Path(__file__).parents[1] / "results" / "quick"
-    store.copy_folder(reference, tmp_path / "quick")
+    copy_folder(reference, tmp_path / "quick")
     out_arg = {"report": ["--out", str(tmp_path / "rep")], "plot": []}[command]
 
     def small_files():

@@ -5,9 +5,10 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from folders import copy_folder
 
 from bench.analysis import agreement
-from bench.harness import store
+from bench.harness import frames, store
 
 REFERENCE = Path(__file__).parents[1] / "results" / "quick"
 
@@ -41,7 +42,7 @@ def test_iqm_difference_of_identical_and_shifted_samples():
 
 def test_identical_folders_agree(tmp_path, cli):
     run = tmp_path / "run"
-    store.copy_folder(REFERENCE, run)
+    copy_folder(REFERENCE, run)
     out = cli("compare", str(run), str(REFERENCE), "--reps", "500")
     assert out.returncode == 0, out.stderr
     found = verdicts(out.stdout)
@@ -50,8 +51,8 @@ def test_identical_folders_agree(tmp_path, cli):
 
 def test_gaifo_at_random_level_differs(tmp_path, cli):
     run = tmp_path / "run"
-    store.copy_folder(REFERENCE, run)
-    records = store.load(run)
+    copy_folder(REFERENCE, run)
+    records = frames.load(run)
     random_returns = records[records.algorithm == "random"].groupby("env_id")["return"]
     random_level = random_returns.mean().to_dict()
 
@@ -71,7 +72,7 @@ def test_gaifo_at_random_level_differs(tmp_path, cli):
 
 def test_folders_without_overlap_give_one_line(tmp_path, cli):
     run = tmp_path / "run"
-    store.copy_folder(REFERENCE, run)
+    copy_folder(REFERENCE, run)
     rewrite(
         run,
         lambda r: dataclasses.replace(
@@ -90,7 +91,7 @@ def test_only_like_is_compared_with_like(tmp_path, cli):
     is compared, and the output says how many cells had no like; folders that share no
     setting at all are one line that names the budgets."""
     run = tmp_path / "run"
-    store.copy_folder(REFERENCE, run)
+    copy_folder(REFERENCE, run)
 
     def other_budget(result, algorithms=("gaifo",)):
         if result.spec.algorithm not in algorithms:
@@ -106,7 +107,7 @@ def test_only_like_is_compared_with_like(tmp_path, cli):
     assert "Not compared:" in out.stdout and "another budget" in out.stdout
 
     every = tmp_path / "every"
-    store.copy_folder(REFERENCE, every)
+    copy_folder(REFERENCE, every)
     rewrite(every, lambda r: other_budget(r, algorithms=(r.spec.algorithm,)))
     out = cli("compare", str(every), str(REFERENCE), "--reps", "200")
     assert out.returncode == 2 and out.stderr.count("\n") == 1

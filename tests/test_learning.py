@@ -7,7 +7,7 @@ seeds with headroom, never "seed k passes"; each was checked on two disjoint see
 import pytest
 
 from bench.analysis import normalize
-from bench.harness import store
+from bench.harness import frames
 from bench.harness.runner import run_suite
 from bench.harness.suite import load_suite
 
@@ -23,7 +23,7 @@ def run(tmp_path, body: str):
     specs = list(load_suite(tmp_path / "s.yaml").trials)
     summary = run_suite(specs, tmp_path / "res", jobs=2, progress=False)
     assert summary.failed == 0
-    return normalize.normalize(store.load(tmp_path / "res"))
+    return normalize.normalize(frames.load(tmp_path / "res"))
 
 
 @pytest.mark.parametrize("learner", ["gaifo", "gail"])
@@ -49,7 +49,7 @@ def test_adversarial_learners_imitate_inverted_pendulum_from_one_demonstration(t
     assert runs.normalized.median() >= 0.95, shown
     assert (runs.normalized >= 0.95).sum() >= len(SEEDS) - 1, shown
     assert (runs.env_steps <= 70_000).all()
-    logs = store.load_logs(tmp_path / "res")
+    logs = frames.load_logs(tmp_path / "res")
     assert {
         "disc_loss",
         "disc_acc_policy",
@@ -57,7 +57,7 @@ def test_adversarial_learners_imitate_inverted_pendulum_from_one_demonstration(t
         "reward_absorbing",
         "terminations",
     } <= set(logs.key)
-    curves = store.load_curves(tmp_path / "res")
+    curves = frames.load_curves(tmp_path / "res")
     points = curves[curves.algorithm == learner].groupby("seed").size()
     assert len(points) == len(SEEDS) and points.between(4, 5).all(), points  # curve_points: 4
 

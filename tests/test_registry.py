@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from bench.harness import registry
+from bench.harness import frames, registry
 from bench.harness.trial import plan, run_trial
 from bench.harness.types import TrialSpec
 from bench.imitation.data import ActionDemos, Demos
@@ -71,9 +71,8 @@ def test_the_plugin_page_installs_and_runs_as_written(tmp_path, cli):
     )
     out = cli("run", str(suite), "--results", str(tmp_path / "res"), "--jobs", "1", env=env)
     assert out.returncode == 0, out.stderr
-    from bench.harness import store
 
-    runs = store.load(tmp_path / "res")
+    runs = frames.load(tmp_path / "res")
     row = runs[runs.algorithm == "nearest-state"].iloc[0]
     assert row.status == "ok" and 0 < row.env_steps <= 4096 and np.isfinite(row["return"])
 
@@ -239,7 +238,7 @@ def test_a_plugin_control_is_drawn_and_reported_as_one_and_its_policy_is_kept(
     from bench.analysis import plot
     from bench.analysis.labels import Names
     from bench.analysis.normalize import normalize
-    from bench.harness import policies, store
+    from bench.harness import policies
 
     env = install_plugin(
         tmp_path / "site",
@@ -259,7 +258,7 @@ def test_a_plugin_control_is_drawn_and_reported_as_one_and_its_policy_is_kept(
     out = cli("report", str(results), "--reps", "50", env=env)
     assert out.returncode == 0, out.stderr
 
-    trials = store.load(results)
+    trials = frames.load(results)
     roles = dict(zip(trials["algorithm"], trials["role"], strict=False))
     assert roles["standing"] == "floor" and roles["linear"] == "learner"
     text = (results / "report" / "report.md").read_text()

@@ -14,7 +14,7 @@ import pytest
 from matplotlib.patches import Rectangle
 
 from bench.analysis import normalize, plot
-from bench.harness import store
+from bench.harness import frames, store
 from bench.harness.costs import CostModel, TimeLimit, estimate
 from bench.harness.runner import _jobs, run_suite
 from bench.harness.snapshots import SnapshotPlan
@@ -83,7 +83,7 @@ def test_dask_backend_matches_loky(tmp_path, on_dask):
     assert loky.done == len(specs) == 4
     dask = on_dask(specs, tmp_path / "dask", workers=2)
     assert dask.done == 4
-    a, b = store.load(tmp_path / "loky"), store.load(tmp_path / "dask")
+    a, b = frames.load(tmp_path / "loky"), frames.load(tmp_path / "dask")
     np.testing.assert_array_equal(a["return"].to_numpy(), b["return"].to_numpy())
     np.testing.assert_array_equal(a["env_steps"].to_numpy(), b["env_steps"].to_numpy())
     # Each record says what its algorithm was given, so figures need no registry.
@@ -225,7 +225,7 @@ def test_failing_trial_is_recorded_and_retried(tmp_path, cli, install_plugin):
     out = cli(*run, env=env)
     assert out.returncode == 1
     assert "1 trials done, 1 failed" in out.stdout
-    df = store.load(results)
+    df = frames.load(results)
     failed = df[df.status == "failed"]
     assert list(failed.algorithm) == ["flaky"]
     record = store.read(store.record_path(results, failed.trial_id.iloc[0]))
@@ -419,7 +419,7 @@ def test_two_variants_of_one_algorithm_run_and_plot_side_by_side(tmp_path, cli):
     records = list(store.scan(tmp_path / "res"))
     variant = [r for r in records if r.spec.label == "gaifo-no-absorbing"]
     assert len(variant) == 2 and all(r.spec.hyperparams["absorbing"] is False for r in variant)
-    df = normalize.normalize(store.load(tmp_path / "res"))
+    df = normalize.normalize(frames.load(tmp_path / "res"))
     fig = plot.draw_figure2(df)
     assert len([p for p in fig.axes[0].patches if isinstance(p, Rectangle)]) == 2
     assert [t.get_text() for t in fig.legends[0].get_texts()][:2] == ["GAIfO", "gaifo-no-absorbing"]

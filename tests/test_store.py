@@ -10,7 +10,7 @@ import time
 import numpy as np
 import pytest
 
-from bench.harness import registry, store
+from bench.harness import frames, registry, store
 from bench.harness.types import CurvePoint, TrialResult, TrialSpec
 
 
@@ -54,7 +54,7 @@ def test_a_record_keeps_what_its_algorithm_was_and_an_old_one_is_told_by_the_reg
     old = result(role=None, family=None, label=None)
     back = store.read(store.write(tmp_path, old))
     assert (back.role, back.family, back.label) == ("learner", "trpo", "GAIfO")
-    row = store.load(tmp_path).set_index("algorithm").loc["my-ifo"]
+    row = frames.load(tmp_path).set_index("algorithm").loc["my-ifo"]
     assert (row["role"], row["family"], row["label"]) == ("floor", "trpo", "Mine")
 
 
@@ -124,13 +124,13 @@ def test_corrupt_records_are_skipped_with_a_warning(tmp_path):
     assert ["truncated.json" in str(w.message) for w in caught] == [True, False]
     assert "wrong.json" in str(caught[1].message)
     with pytest.warns(UserWarning, match="skipping unreadable trial record"):
-        assert len(store.load(tmp_path)) == 1
+        assert len(frames.load(tmp_path)) == 1
 
 
 def test_a_missing_folder_has_no_records(tmp_path):
     assert list(store.scan(tmp_path / "nothing")) == []
-    frame = store.load(tmp_path / "nothing")
-    assert frame.empty and list(frame.columns) == store.TRIAL_COLUMNS
+    frame = frames.load(tmp_path / "nothing")
+    assert frame.empty and list(frame.columns) == frames.TRIAL_COLUMNS
 
 
 def test_load_is_tidy(tmp_path):
@@ -139,8 +139,8 @@ def test_load_is_tidy(tmp_path):
     store.write(tmp_path, result(spec(seed=2), status="failed", returns=[], traceback="boom"))
     store.write(tmp_path, result(spec("random", n_demos=0), returns=[0.0]))
 
-    frame = store.load(tmp_path)
-    assert list(frame.columns) == store.TRIAL_COLUMNS
+    frame = frames.load(tmp_path)
+    assert list(frame.columns) == frames.TRIAL_COLUMNS
     assert frame[["algorithm", "seed"]].values.tolist() == [
         ["gaifo", 0],
         ["gaifo", 1],
@@ -158,8 +158,8 @@ def test_load_is_tidy(tmp_path):
 def test_load_curves_keeps_ok_trials_only(tmp_path):
     store.write(tmp_path, result(spec(seed=0)))
     store.write(tmp_path, result(spec(seed=1), status="failed", returns=[]))
-    curves = store.load_curves(tmp_path)
-    assert list(curves.columns) == store.CURVE_COLUMNS
+    curves = frames.load_curves(tmp_path)
+    assert list(curves.columns) == frames.CURVE_COLUMNS
     assert curves[["seed", "env_steps", "return"]].values.tolist() == [
         [0, 500, 0.5],
         [0, 1000, 2.0],
@@ -168,8 +168,8 @@ def test_load_curves_keeps_ok_trials_only(tmp_path):
 
 def test_load_logs_is_long(tmp_path):
     store.write(tmp_path, result())
-    logs = store.load_logs(tmp_path)
-    assert list(logs.columns) == store.LOG_COLUMNS
+    logs = frames.load_logs(tmp_path)
+    assert list(logs.columns) == frames.LOG_COLUMNS
     assert logs[["key", "index", "value"]].values.tolist() == [
         ["disc_acc", 0, 0.5],
         ["disc_acc", 1, 0.75],
@@ -255,7 +255,7 @@ def test_a_malformed_record_is_named_once_and_left_out(tmp_path, edit, named):
     )
     with pytest.warns(UserWarning):
         assert CostModel.of(store.scan(folder)).seconds(spec()) is not None
-        assert list(store.load(folder)["trial_id"]) == [good.stem]
+        assert list(frames.load(folder)["trial_id"]) == [good.stem]
     assert store.find(tmp_path, {bad.stem, good.stem}) == {good.stem: good}
 
 

@@ -1,5 +1,5 @@
 """Who a report sets against whom, and the statistics of it: pure functions over the tidy
-normalized frame (`store.load` -> `normalize`), each returning a frame. Nothing here writes
+normalized frame (`frames.load` -> `normalize`), each returning a frame. Nothing here writes
 or renders; `bench.analysis.report` draws and words what these compute.
 
 - per demonstration count, pooled over envs: mean, median and IQM with CIs, probabilities of

@@ -87,7 +87,7 @@ class Findings:
 
 def find(df: pd.DataFrame, curves: pd.DataFrame, reps: int, focus: str = TARGET) -> Findings:
     """Everything a report on `focus` shows, from `df` (normalized trials) and `curves` (the
-    records' learning curves, `store.load_curves`); `reps` bootstrap resamples per interval."""
+    records' learning curves, `frames.load_curves`); `reps` bootstrap resamples per interval."""
     names = Names.of(df)
     raw = normalized_curves(curves, df)
     reach = time_to(steps_to(raw, REACH))

@@ -44,7 +44,7 @@ class Names(Mapping[str, Shown]):
 
     @classmethod
     def of(cls, *frames: pd.DataFrame) -> Names:
-        """From frames of records (`store.load`, `load_curves`): columns algorithm, method,
+        """From frames of records (`frames.load`, `load_curves`): columns algorithm, method,
         role, family, label and inputs; the first frame's word on a name wins."""
         shown: dict[str, Shown] = {}
         for df in frames:

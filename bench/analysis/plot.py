@@ -1,4 +1,4 @@
-"""Figures, and the per-trial CSV beside them, from the tidy normalized frame (store.load ->
+"""Figures, and the per-trial CSV beside them, from the tidy normalized frame (frames.load ->
 normalize); the markdown table of the same means is `bench.analysis.tables.summary_table`.
 
 Nothing here computes a statistic beyond grouping: means and standard

@@ -35,7 +35,7 @@ from bench.analysis.findings import Findings
 from bench.analysis.labels import Names
 from bench.analysis.markdown import demos_title
 from bench.analysis.normalize import normalize
-from bench.harness import store
+from bench.harness import frames, store
 
 REPORT = "report.md"
 AGGREGATES_CSV = "aggregates.csv"
@@ -87,10 +87,10 @@ def write_report(
     """
     results_dir = Path(results_dir)
     out_dir = results_dir / "report" if out_dir is None else Path(out_dir)
-    trials = store.load(results_dir)
+    trials = frames.load(results_dir)
     if trials.empty:
         raise FileNotFoundError(f"{store.trials_dir(results_dir)}: no readable trial record")
-    found = findings.find(normalize(trials), store.load_curves(results_dir), reps, focus)
+    found = findings.find(normalize(trials), frames.load_curves(results_dir), reps, focus)
     out_dir.mkdir(parents=True, exist_ok=True)
     for name, figure in figures(found):
         plot.save(figure, out_dir / name)

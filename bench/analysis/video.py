@@ -25,7 +25,7 @@ from bench.analysis.labels import Names, is_reference
 from bench.analysis.normalize import normalize
 from bench.demos import experts
 from bench.errors import BadInput
-from bench.harness import policies, store
+from bench.harness import frames, policies, store
 from bench.harness.film import film_episode
 from bench.harness.registry import Policy
 from bench.harness.trial import EVAL_SEED
@@ -65,7 +65,7 @@ def panels(
     kept policy: its trial at `n_demos` demonstrations (default the largest count run) and
     `seed`; demonstration-free controls at theirs. `env_id` may be left out where the folder
     holds one env. Raises VideoError naming what is missing."""
-    trials = store.load(results_dir)
+    trials = frames.load(results_dir)
     if trials.empty:
         raise VideoError(f"{results_dir}: no trial records")
     have = labels.env_order(trials["env_id"].unique())

@@ -17,7 +17,7 @@ if TYPE_CHECKING:
 
 def _experts_train(args: argparse.Namespace) -> int:
     from bench import envs, paths, validate
-    from bench.demos.experts import ExpertTraining, ExpertError, train_expert
+    from bench.demos.experts import ExpertError, ExpertTraining, train_expert
 
     envs.check_env_id(args.env_id)
     batch = {"n_envs": args.n_envs, "steps_per_env": args.steps_per_env}
@@ -137,11 +137,11 @@ def _list(args: argparse.Namespace) -> int:
 def _demos_export(args: argparse.Namespace) -> int:
     from bench.analysis import normalize
     from bench.demos import minari_io
-    from bench.harness import store
+    from bench.harness import frames
 
     if not Path(args.references).is_dir():
         raise FileNotFoundError(f"{args.references}: no such results folder")
-    refs = normalize.reference_returns(store.load(args.references)).set_index("env_id")
+    refs = normalize.reference_returns(frames.load(args.references)).set_index("env_id")
     if args.env_id not in refs.index or refs.loc[args.env_id].isna().any():
         raise normalize.NormalizationError(
             f"{args.references} has no random and expert trials of {args.env_id} to take "

@@ -15,7 +15,7 @@ if TYPE_CHECKING:
 
 def _plot(args: argparse.Namespace) -> int:
     from bench.analysis import labels, normalize, plot, tables
-    from bench.harness import store
+    from bench.harness import frames, store
 
     dirs = store.suite_dirs(args.results_dir)
     if args.out and len(dirs) > 1:
@@ -26,7 +26,7 @@ def _plot(args: argparse.Namespace) -> int:
             " records; name one suite's folder"
         )
     for d in dirs:
-        trials = store.load(d)
+        trials = frames.load(d)
         if trials.empty:
             raise FileNotFoundError(f"{store.trials_dir(d)}: no readable trial record")
         df = normalize.normalize(trials)
@@ -52,12 +52,12 @@ def _plot(args: argparse.Namespace) -> int:
 def _report(args: argparse.Namespace) -> int:
     from bench.analysis import report, tables
     from bench.analysis.comparisons import TARGET
-    from bench.harness import store
+    from bench.harness import frames, store
 
     focus = TARGET
     if args.focus is not None:
         for d in store.suite_dirs(args.results_dir):
-            focus = _algorithm_named(args.focus, store.load(d), d)
+            focus = _algorithm_named(args.focus, frames.load(d), d)
     for written in report.write_reports(args.results_dir, args.out, args.reps, focus):
         shown = tables.report_tables(written.aggregates, written.improvements, written.names)
         print(f"## {written.path}\n\n{shown}")
@@ -105,14 +105,14 @@ def _algorithm_named(name: str, trials: pd.DataFrame, folder: str | Path) -> str
 
 def _one_suite(folder: str) -> pd.DataFrame:
     """The trial records of the one suite in `folder`."""
-    from bench.harness import store
+    from bench.harness import frames, store
 
     dirs = store.suite_dirs(folder)
     if len(dirs) > 1:
         raise FileNotFoundError(
             f"{folder} holds {len(dirs)} suites' records ({', '.join(map(str, dirs))}); name one"
         )
-    return store.load(dirs[0])
+    return frames.load(dirs[0])
 
 
 def add(sub: argparse._SubParsersAction) -> None:

@@ -1,4 +1,5 @@
-"""Per-trial records on disk, and the tidy DataFrames read from them.
+"""Per-trial records on disk: written, linked, read, found and set aside (the tidy frames read
+from them are `bench.harness.frames`').
 
 Layout: `<results_dir>/trials/<trial_id>.json`, one `TrialResult` per file.
 A record appears under its final name only once complete (temp file in the
@@ -27,7 +28,6 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import pandas as pd
 
 from bench import atomic, reading
 from bench.errors import BadInput
@@ -38,30 +38,9 @@ TRIALS = "trials"
 STALE_TMP_SECONDS = 600.0
 """A *.tmp older than this is a dead writer's; younger ones may belong to a live worker."""
 
-SPEC_COLUMNS = ["suite", "env_id", "algorithm", "n_demos", "seed", "budget", "observation"]
-ROLE_COLUMNS = ["method", "role", "family", "label"]
-"""What the shown algorithm (`algorithm`) is: the registered one it runs, its role, its
-optimizer family and its display label, as its records say (`bench.harness.registry.Algorithm`)."""
-TRIAL_COLUMNS = [
-    *SPEC_COLUMNS,
-    *ROLE_COLUMNS,
-    "inputs",
-    "trial_id",
-    "setting",
-    "status",
-    "return",
-    "return_std",
-    "env_steps",
-    "wall_time",
-    "state_distance",
-    "software",
-]
-CURVE_COLUMNS = ["trial_id", *SPEC_COLUMNS, *ROLE_COLUMNS, "inputs", "env_steps", "return"]
-LOG_COLUMNS = ["trial_id", *SPEC_COLUMNS, *ROLE_COLUMNS, "key", "index", "value"]
-
 
 NO_RETURN = "no finite return"
-"""The status `load` gives a record marked ok whose returns are missing, NaN or infinite."""
+"""The status `frames.load` gives a record marked ok whose returns are missing, NaN or infinite."""
 LINK = "same_as"
 """The key of a link file: the record it stands for, relative to the link's folder."""
 LOCK = ".lock"
@@ -179,19 +158,6 @@ def _check_types(raw: Any) -> None:
         check(f"returns[{i}]", r, float)
 
 
-def copy_folder(results_dir: str | Path, to: str | Path) -> Path:
-    """Copy the records of `results_dir` into `to` (a new folder), each a record of its own: a
-    link is replaced by the record it names, as this suite's. Links name their records
-    relative to their folder, so a folder taken out of its parent (a copy elsewhere, an
-    archive) must be copied this way to stay readable."""
-    to = Path(to)
-    if to.exists():
-        raise FileExistsError(f"{to} exists already")
-    for result in scan(results_dir):
-        write(to, dataclasses.replace(result, stored_in=None))
-    return to
-
-
 def real_path(path: str | Path) -> Path:
     """The record file that `path` stands for: itself, or the one a link names."""
     path = Path(path)
@@ -248,38 +214,6 @@ def read(path: str | Path) -> TrialResult:
         label=label,
         resumed_at=raw.get("resumed_at", []),
     )
-
-
-def load(results_dir: str | Path) -> pd.DataFrame:
-    """One row per trial: TRIAL_COLUMNS; `return` is the mean evaluation return (NaN if failed)."""
-    rows = [_trial_row(r) for r in scan(results_dir)]
-    return _frame(rows, TRIAL_COLUMNS, ["env_id", "algorithm", "n_demos", "seed", "trial_id"])
-
-
-def load_curves(results_dir: str | Path) -> pd.DataFrame:
-    """One row per evaluation point of every ok trial: CURVE_COLUMNS.
-
-    Failed trials are left out: their curves stop early, and mixing them in
-    would change the number of seeds behind each point along the curve.
-    """
-    rows = [
-        {**_spec_row(r), "inputs": r.inputs, "env_steps": p.env_steps, "return": p.mean_return}
-        for r in scan(results_dir)
-        if r.status == "ok"
-        for p in r.curve
-    ]
-    return _frame(rows, CURVE_COLUMNS, ["env_id", "algorithm", "n_demos", "seed", "env_steps"])
-
-
-def load_logs(results_dir: str | Path) -> pd.DataFrame:
-    """Algorithm diagnostics, long format: LOG_COLUMNS; `index` counts entries per key."""
-    rows = [
-        {**_spec_row(r), "key": key, "index": i, "value": v}
-        for r in scan(results_dir)
-        for key, values in r.logs.items()
-        for i, v in enumerate(values)
-    ]
-    return _frame(rows, LOG_COLUMNS, ["env_id", "algorithm", "n_demos", "seed", "key", "index"])
 
 
 def suite_dirs(root: str | Path) -> list[Path]:
@@ -433,49 +367,12 @@ def scan(results_dir: str | Path) -> Iterator[TrialResult]:
         yield result
 
 
-def _spec_row(r: TrialResult) -> dict[str, Any]:
-    """The spec's columns and ROLE_COLUMNS; `algorithm` is the name shown (a labelled
-    variant's label) and `method` the registered algorithm it runs."""
-    row = {"trial_id": r.trial_id, "setting": r.spec.setting_id}
-    row |= {c: getattr(r.spec, c) for c in SPEC_COLUMNS}
-    shown = {"algorithm": r.spec.shown, "method": r.spec.algorithm}
-    described = {"role": r.role or "learner", "family": r.family, "label": r.label or r.spec.shown}
-    return row | shown | described | {"observation": r.spec.observation or "states"}
-
-
 def status_of(r: TrialResult) -> str:
     """The record's status, but NO_RETURN for an "ok" one without a finite return (edited, or
     from a broken writer): no score, listed and retried with the failed ones."""
     returns = np.asarray(r.returns, dtype=float)
     finite = returns.size > 0 and bool(np.isfinite(returns).all())
     return NO_RETURN if r.status == "ok" and not finite else r.status
-
-
-def _trial_row(r: TrialResult) -> dict[str, Any]:
-    status = status_of(r)
-    ok = status == "ok"
-    returns = np.asarray(r.returns, dtype=float)
-    return {
-        **_spec_row(r),
-        "inputs": r.inputs,
-        "status": status,
-        "return": float(returns.mean()) if ok else math.nan,
-        "return_std": float(returns.std()) if ok else math.nan,
-        "env_steps": r.env_steps,
-        "wall_time": r.wall_time,
-        "state_distance": _float(r.state_distance) if ok else math.nan,
-        "software": software(r.versions),
-    }
-
-
-def software(versions: dict[str, str]) -> str:
-    """The package versions a trial ran with, as one label: "gymnasium 1.4.0, pybullet ..."."""
-    return ", ".join(f"{pkg} {v}" for pkg, v in sorted(versions.items()))
-
-
-def _frame(rows: list[dict], columns: list[str], sort_by: list[str]) -> pd.DataFrame:
-    frame = pd.DataFrame(rows, columns=columns)
-    return frame.sort_values(sort_by, kind="stable", ignore_index=True)
 
 
 def _finite(value: Any) -> Any:
