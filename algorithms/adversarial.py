@@ -81,7 +81,6 @@ class AdversarialConfig(ImitationTRPOConfig, RewardingDiscriminatorConfig):
 
     def __post_init__(self) -> None:
         super().__post_init__()
-        RewardingDiscriminatorConfig.__post_init__(self)
         one_of(self, "absorbing_floor", ABSORBING_FLOORS)
         if self.absorbing_floor != "none" and not self.absorbing:
             raise ValueError("absorbing_floor needs absorbing states (absorbing: true)")

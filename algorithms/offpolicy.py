@@ -46,10 +46,6 @@ class OffPolicyConfig(sac.SACConfig):
 class OffPolicyAdversarialConfig(OffPolicyConfig, RewardingDiscriminatorConfig):
     """The off-policy imitators' SAC settings plus D's (the on-policy learners' D)."""
 
-    def __post_init__(self) -> None:
-        super().__post_init__()
-        RewardingDiscriminatorConfig.__post_init__(self)
-
 
 def sac_budget(config: OffPolicyConfig) -> int:
     """Fewest env steps to learn anything: the random steps before the first update, plus one."""

@@ -79,7 +79,6 @@ class OPOLOConfig(TD3Config, DiscriminatorConfig):
 
     def __post_init__(self) -> None:
         super().__post_init__()
-        DiscriminatorConfig.__post_init__(self)
         at_least(self, 0, "alpha", "inverse_weight", "inverse_l2", "inverse_pretrain")
         at_least(self, 1, "disc_steps", "inverse_steps", "train_every")
 

@@ -58,7 +58,6 @@ class TCNConfig(ImitationTRPOConfig, EmbeddingConfig):
 
     def __post_init__(self) -> None:
         super().__post_init__()
-        EmbeddingConfig.__post_init__(self)
         at_least(self, 0, "reward_alpha", "reward_beta")
         above(self, 0, "reward_gamma")
 

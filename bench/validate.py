@@ -184,3 +184,13 @@ def duration(text: str) -> float:
     if total <= 0:
         raise ValueError(f"must be longer than 0, not {text!r}")
     return total
+
+
+class Checked:
+    """The root of the config dataclasses that check their fields: each one's `__post_init__`
+    checks its own fields and first calls `super().__post_init__()`, so that a config of
+    several bases (GAIfO's: TRPO's and the discriminator's) checks all of theirs, each once,
+    along its MRO, with no base named by hand."""
+
+    def __post_init__(self) -> None:
+        pass

@@ -23,7 +23,7 @@ from bench.fields import added_later
 from bench.rl import absorbing
 from bench.rl.absorbing import Transitions
 from bench.rl.networks import ConvTrunk, ObsShape, PixelScale, RunningNorm, mlp, shape_of
-from bench.validate import above, at_least, layers, one_of
+from bench.validate import Checked, above, at_least, layers, one_of
 
 REWARDS: dict[str, Callable[[torch.Tensor], torch.Tensor]] = {
     "-log(1-D)": lambda logit: F.softplus(logit),  # -log(1 - sigmoid(x)) = softplus(x) > 0
@@ -33,7 +33,7 @@ REWARDS: dict[str, Callable[[torch.Tensor], torch.Tensor]] = {
 
 
 @dataclass
-class DiscriminatorConfig:
+class DiscriminatorConfig(Checked):
     """D's settings, the same fields and checks for every adversarial learner whatever its
     optimizer (TRPO's GAIfO and GAIL, SAC's, OPOLO's TD3): one D, one training step
     (`discriminator_step`)."""
@@ -57,6 +57,7 @@ class DiscriminatorConfig:
     all of them); None: all. States only, not frames (docs/design/settings.md)."""
 
     def __post_init__(self) -> None:
+        super().__post_init__()
         layers(self, "disc_hidden")
         above(self, 0, "disc_lr")
         at_least(self, 0, "grad_penalty", "gp_target", "disc_entropy", "disc_noise")

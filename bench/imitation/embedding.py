@@ -14,11 +14,11 @@ from torch import nn
 
 from bench.imitation.data import Demos
 from bench.rl.networks import ObsShape, body, normalizer
-from bench.validate import above, at_least, layers
+from bench.validate import Checked, above, at_least, layers
 
 
 @dataclass
-class EmbeddingConfig:
+class EmbeddingConfig(Checked):
     """The embedding's settings and its triplet training's."""
 
     embed_dim: int = 32
@@ -39,6 +39,7 @@ class EmbeddingConfig:
     """Triplets per Adam step."""
 
     def __post_init__(self) -> None:
+        super().__post_init__()
         layers(self, "embed_hidden")
         if not 1 <= self.pos_window < self.neg_margin:
             raise ValueError("need 1 <= pos_window < neg_margin")

@@ -34,11 +34,11 @@ from bench.rl.networks import mlp
 from bench.rl.replay import ReplayBatch, ReplayBuffer, flagged, transitions_of_step
 from bench.rl.resume import TORCH_RNG, Resumable, Snapshots, Stateful
 from bench.rl.rollout import Batch, VecCollector
-from bench.validate import layers
+from bench.validate import Checked, layers
 
 
 @dataclass
-class SACConfig:
+class SACConfig(Checked):
     hidden: tuple[int, ...] = (256, 256)
     """Hidden layer sizes of the actor and of each critic (ReLU)."""
     gamma: float = 0.99
@@ -64,6 +64,7 @@ class SACConfig:
     replay buffer and the envs stay in CPU memory; each minibatch goes over as it is sampled."""
 
     def __post_init__(self) -> None:
+        super().__post_init__()
         layers(self, "hidden")
         try:
             kind = torch.device(self.device).type

@@ -21,11 +21,11 @@ import torch
 from bench.rl.networks import ConvTrunk, GaussianPolicy, ObsShape, RunningNorm, ValueNet
 from bench.rl.resume import TORCH_RNG, Resumable, Snapshots
 from bench.rl.rollout import Batch, RewardFn, Rewards, VecCollector
-from bench.validate import above, at_least, layers
+from bench.validate import Checked, above, at_least, layers
 
 
 @dataclass
-class TRPOConfig:
+class TRPOConfig(Checked):
     n_envs: int = 8
     """Envs stepped side by side in one process (one batched policy forward per step)."""
     steps_per_env: int = 256
@@ -58,6 +58,7 @@ class TRPOConfig:
     """Initial log standard deviation of the policy."""
 
     def __post_init__(self) -> None:
+        super().__post_init__()
         layers(self, "hidden")
         counts = ("n_envs", "steps_per_env", "cg_iters", "fisher_subsample", "vf_epochs")
         for name in (*counts, "vf_minibatch"):
