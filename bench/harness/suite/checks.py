@@ -36,6 +36,14 @@ def at_setting(key: str, error: validate.SettingError) -> Invalid:
     return Invalid(joined(key, error.field), error.message)
 
 
+def config_error(key: str, error: TypeError | ValueError) -> Invalid:
+    """Why a config does not build, at `key`: at the setting's own path where it names one
+    (`SettingError`), else the error's message in one line."""
+    if isinstance(error, validate.SettingError):
+        return at_setting(key, error)
+    return Invalid(key, one_line(str(error)))
+
+
 def check_budgets(trials: list[TrialSpec]) -> None:
     """Each trial's budget covers what its algorithm needs before it can learn anything (one
     TRPO batch, say), asked of the algorithm (`register(..., min_budget=)`): a trial that
@@ -171,9 +179,7 @@ def _blame(env: EnvSettings, entry: AlgorithmEntry, error: Exception) -> Invalid
     try:
         registry.get(entry.name).make_config(entry.overrides)
     except (TypeError, ValueError) as own:
-        if isinstance(own, validate.SettingError):
-            return at_setting(entry.key, own)
-        return Invalid(entry.key, one_line(str(own)))
+        return config_error(entry.key, own)
     where = f"envs.{env.env_id}.{'hyperparams' if env.hyperparams else 'trpo'}"
     return Invalid(where, f"{entry.shown}: {one_line(str(error))}")
 
@@ -195,10 +201,8 @@ def check_overrides(algo: registry.Algorithm, overrides: dict, key: str) -> None
     check_plain(overrides, key)
     try:
         algo.check_overrides(overrides)
-    except validate.SettingError as e:
-        raise at_setting(key, e) from None
     except ValueError as e:
-        raise Invalid(key, one_line(str(e))) from None
+        raise config_error(key, e) from None
 
 
 def check_config(config: type, values: dict, key: str) -> None:
@@ -206,10 +210,8 @@ def check_config(config: type, values: dict, key: str) -> None:
     try:
         validate.check_types(config, values)
         config(**values)
-    except validate.SettingError as e:
-        raise at_setting(key, e) from None
     except (TypeError, ValueError) as e:
-        raise Invalid(key, one_line(str(e))) from None
+        raise config_error(key, e) from None
 
 
 def scalar_type(f: dataclasses.Field) -> type | None:
