@@ -93,9 +93,8 @@ def write(results_dir: str | Path, result: TrialResult) -> Path:
     folder = trials_dir(results_dir)
     folder.mkdir(parents=True, exist_ok=True)
     _remove_stale_tmp(folder)
-    spec = dataclasses.replace(result.spec, config=None)
-    record = dataclasses.asdict(dataclasses.replace(result, spec=spec, policy=None))
-    del record["spec"]["config"]  # `hyperparams` says it
+    record = dataclasses.asdict(dataclasses.replace(result, spec=None, policy=None))
+    record["spec"] = result.spec.plain()  # keeps its place: spec is the record's first key
     del record["policy"]  # a file of its own (bench.harness.policies)
     del record["stored_in"]  # where the reader found it
     if not record["resumed_at"]:  # trials that ran in one go: records as they always were

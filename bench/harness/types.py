@@ -62,11 +62,18 @@ class TrialSpec:
     `config_of` builds it). What it holds is `hyperparams`: no part of the trial's identity,
     never written into a record."""
 
+    def plain(self) -> dict[str, Any]:
+        """Its fields as plain values, as a record holds them: all but `config`, which
+        `hyperparams` says."""
+        spec = asdict(replace(self, config=None))
+        del spec["config"]
+        return spec
+
     def decisive(self) -> dict[str, Any]:
         """Every field but `suite` and `label`, which only say who asked for the trial and what
         it is called there; `OPTIONAL_FIELDS` only where they are set."""
-        spec = asdict(replace(self, config=None))
-        del spec["suite"], spec["label"], spec["config"]
+        spec = self.plain()
+        del spec["suite"], spec["label"]
         for optional in OPTIONAL_FIELDS:
             if spec[optional] is None:
                 del spec[optional]
