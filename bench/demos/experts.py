@@ -142,7 +142,8 @@ def train_expert(
     """
     cfg = cfg or ExpertTraining()
     out = out_dir or paths.expert_dir(env_id)
-    obs_dim, act_dim, low, high = envs.spaces(env_id)
+    spaces = envs.spaces(env_id)
+    obs_dim, act_dim, low, high = spaces
     settings = json.dumps({"env_id": env_id, "steps": steps, "seed": seed, "cfg": asdict(cfg)})
     checkpoint = CheckpointFile(out / CHECKPOINT, settings, checkpoint_every)
     learner = TRPO(obs_dim, act_dim, cfg, seed)
@@ -172,7 +173,7 @@ def train_expert(
             keep={"progress": run},
         )
     candidates = [("final", copy.deepcopy(learner.policy.state_dict()), steps), *run.candidates()]
-    chosen = choose(candidates, env_id, cfg, len(run.kept) > 0, progress)
+    chosen = choose(candidates, env_id, spaces, cfg, len(run.kept) > 0, progress)
     meta = {
         "env_id": env_id,
         "obs_dim": obs_dim,
@@ -296,15 +297,17 @@ class Chosen:
 def choose(
     candidates: list[tuple[str, dict, int]],
     env_id: str,
+    spaces: tuple[int, int, np.ndarray, np.ndarray],
     cfg: TRPOConfig,
     many: bool,
     progress: bool,
 ) -> Chosen:
-    """The candidate (name, policy state, env steps) with the highest deterministic return.
-    Where there are `many` (kept snapshots), they are chosen on episodes of their own, so
-    that the return shipped is not the luckiest of many draws on the same episodes, and the
-    one chosen is then measured on the report episodes."""
-    obs_dim, act_dim, low, high = envs.spaces(env_id)
+    """The candidate (name, policy state, env steps) with the highest deterministic return
+    on `env_id`, whose `envs.spaces` are `spaces`. Where there are `many` (kept snapshots),
+    they are chosen on episodes of their own, so that the return shipped is not the luckiest
+    of many draws on the same episodes, and the one chosen is then measured on the report
+    episodes."""
+    obs_dim, act_dim, low, high = spaces
 
     def scored(state: dict, seed: int, episodes: int) -> tuple[list[float], GaussianPolicy]:
         policy = GaussianPolicy(obs_dim, act_dim, cfg.hidden)
