@@ -30,10 +30,13 @@ from bench.imitation.discriminator import (
     REWARDS,
     Discriminator,
     Features,
+    Head,
+    Objective,
     RewardingDiscriminatorConfig,
     discriminator_log,
     discriminator_step,
     expert_transitions,
+    logistic,
 )
 from bench.imitation.rewards import batch_rewards, batch_transitions
 from bench.rl import absorbing
@@ -141,9 +144,12 @@ class DiscriminatorReward(Stateful):
         task: Task,
         cfg: AdversarialConfig,
         seed: int,
+        objective: Objective = logistic,
     ) -> None:
-        """`expert`: the expert's transitions as tensors (`expert_transitions`)."""
+        """`expert`: the expert's transitions as tensors (`expert_transitions`). `objective`:
+        what D minimizes (`bench.imitation.discriminator.logistic` or `wasserstein`)."""
         self.disc, self.expert, self.task, self.cfg = disc, expert, task, cfg
+        self.objective = objective
         self.opt = torch.optim.Adam(disc.parameters(), lr=cfg.disc_lr)
         self.gen = torch.Generator().manual_seed(seed + 2)
         self.reward = REWARDS[cfg.reward]
@@ -161,7 +167,9 @@ class DiscriminatorReward(Stateful):
         for _ in range(cfg.disc_steps):
             p = disc.inputs(minibatch(policy_x, cfg.disc_minibatch, cfg.absorbing, gen))
             e = disc.inputs(minibatch(self.expert, cfg.disc_minibatch, cfg.absorbing, gen))
-            parts = discriminator_step(disc.net, self.opt, p, e, cfg, gen, learn=not pause)
+            parts = discriminator_step(
+                disc.net, self.opt, p, e, cfg, gen, learn=not pause, objective=self.objective
+            )
             if pause:
                 break
         return {**discriminator_log(parts), "disc_grad_penalty": parts["penalty"].item()}
@@ -206,10 +214,14 @@ def train_adversarial(
     seed: int,
     logger: Logger,
     cfg: AdversarialConfig,
+    head: Head | None = None,
+    objective: Objective = logistic,
 ) -> DeterministicPolicy:
     """The shared loop: D on `features` of expert vs policy transitions, TRPO on D's reward.
 
     `expert_actions`: (T_i, A) per demonstration, for a variant whose features use them (GAIL).
+    `head`: D's network on the features (None: an MLP, `Discriminator`); `objective`: what D
+    minimizes (a classifier's cross-entropy; a critic's, `wasserstein`).
     """
     # Built first: D may scale its inputs with the policy's running statistics.
     learner = make_trpo(task.obs_shape, task.act_dim, cfg, seed)
@@ -224,6 +236,7 @@ def train_adversarial(
         cfg.disc_hidden,
         cfg.absorbing,
         cfg.disc_obs_dims,
+        head,
     )
-    reward = DiscriminatorReward(disc, expert.map(torch.as_tensor), task, cfg, seed)
+    reward = DiscriminatorReward(disc, expert.map(torch.as_tensor), task, cfg, seed, objective)
     return trpo_on_reward(task, budget, seed, logger, cfg, reward, learner)

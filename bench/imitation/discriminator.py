@@ -5,8 +5,10 @@ loss (`discriminator_loss`), one training step (`discriminator_step`) and what i
 (`expert_transitions`).
 
 D outputs the logit of P(expert | transition). Training is binary cross-entropy with the expert
-labelled 1, plus a gradient penalty on interpolates that keeps D smooth, so the policy's reward
-has a slope to climb even where D tells the two sides apart.
+labelled 1 (`logistic`), plus a gradient penalty on interpolates that keeps D smooth, so the
+policy's reward has a slope to climb even where D tells the two sides apart. The same network
+trained on `wasserstein` instead is a Wasserstein critic (WAILfO's), and any `head` on the
+features may stand for the MLP (AIRLfO's shaped one).
 """
 
 from __future__ import annotations
@@ -30,6 +32,26 @@ REWARDS: dict[str, Callable[[torch.Tensor], torch.Tensor]] = {
     "log D": lambda logit: -F.softplus(-logit),  # log sigmoid(x) < 0
     "log D - log(1-D)": lambda logit: logit,  # the logit itself, either sign
 }
+
+
+Objective = Callable[[torch.Tensor, torch.Tensor], torch.Tensor]
+"""objective(logit_p, logit_e) -> the scalar D minimizes, from its (N,) outputs on a minibatch
+of the policy's rows and one of the expert's."""
+
+
+def logistic(logit_p: torch.Tensor, logit_e: torch.Tensor) -> torch.Tensor:
+    """Binary cross-entropy of each side, the expert labelled 1: D a classifier, its output the
+    logit of P(expert) (GAN's, GAIfO's)."""
+    return F.binary_cross_entropy_with_logits(
+        logit_p, torch.zeros_like(logit_p)
+    ) + F.binary_cross_entropy_with_logits(logit_e, torch.ones_like(logit_e))
+
+
+def wasserstein(value_p: torch.Tensor, value_e: torch.Tensor) -> torch.Tensor:
+    """E_policy[f] - E_expert[f]: with a gradient penalty towards norm 1 (`gp_target`), f is a
+    critic whose minimum is minus the Wasserstein-1 distance between the two sides (WGAN-GP,
+    Gulrajani et al. 2017; WAIL, Xiao et al. 2019), and f(x) the reward of x."""
+    return value_p.mean() - value_e.mean()
 
 
 @dataclass
@@ -85,9 +107,10 @@ def discriminator_loss(
     expert: torch.Tensor,
     cfg: DiscriminatorConfig,
     gen: torch.Generator,
+    objective: Objective = logistic,
 ) -> tuple[torch.Tensor, dict[str, torch.Tensor]]:
     """D's loss on one minibatch of each side, (N, F) feature rows of the policy's and the
-    expert's, and its parts: binary cross-entropy with the expert labelled 1, less
+    expert's, and its parts: the `objective` (binary cross-entropy with the expert labelled 1), less
     `disc_entropy` times the entropy of D's predictions, plus `grad_penalty` times
     (||grad D|| - gp_target)^2 on random interpolates. `net` maps rows to (N, 1) logits. With
     `disc_noise`, both sides' rows first get Gaussian noise of that std added, the penalty's
@@ -98,10 +121,8 @@ def discriminator_loss(
         policy = policy + cfg.disc_noise * normal_like(policy, gen)
         expert = expert + cfg.disc_noise * normal_like(expert, gen)
     logit_p, logit_e = net(policy).squeeze(-1), net(expert).squeeze(-1)
-    bce = F.binary_cross_entropy_with_logits(
-        logit_p, torch.zeros_like(logit_p)
-    ) + F.binary_cross_entropy_with_logits(logit_e, torch.ones_like(logit_e))
-    loss = bce
+    value = objective(logit_p, logit_e)
+    loss = value
     if cfg.disc_entropy > 0:
         logits = torch.cat([logit_p, logit_e])
         entropy = -(
@@ -118,7 +139,7 @@ def discriminator_loss(
         grad = torch.autograd.grad(net(mix).sum(), mix, create_graph=True)[0]
         penalty = (grad.norm(dim=1) - cfg.gp_target).square().mean()
         loss = loss + cfg.grad_penalty * penalty
-    return loss, {"bce": bce, "penalty": penalty, "logit_p": logit_p, "logit_e": logit_e}
+    return loss, {"objective": value, "penalty": penalty, "logit_p": logit_p, "logit_e": logit_e}
 
 
 def normal_like(rows: torch.Tensor, gen: torch.Generator) -> torch.Tensor:
@@ -134,11 +155,12 @@ def discriminator_step(
     cfg: DiscriminatorConfig,
     gen: torch.Generator,
     learn: bool = True,
+    objective: Objective = logistic,
 ) -> dict[str, torch.Tensor]:
     """One training step of D, whatever the learner: `opt`'s step on `discriminator_loss` of
     one minibatch of each side ((N, F) feature rows), and the loss's parts, for
     `discriminator_log`. `learn=False`: the parts alone, D left as it is."""
-    loss, parts = discriminator_loss(net, policy, expert, cfg, gen)
+    loss, parts = discriminator_loss(net, policy, expert, cfg, gen, objective)
     if learn:
         opt.zero_grad()
         loss.backward()
@@ -147,11 +169,11 @@ def discriminator_step(
 
 
 def discriminator_log(parts: dict[str, torch.Tensor]) -> dict[str, float]:
-    """What every adversarial learner logs of D's last step, by name: its cross-entropy
-    (`disc_loss`) and the share of each side's rows it tells right (`disc_acc_policy`,
-    `disc_acc_expert`)."""
+    """What every adversarial learner logs of D's last step, by name: its objective
+    (`disc_loss`: the cross-entropy, or a critic's E_policy[f] - E_expert[f]) and the share of
+    each side's rows on its side of 0 (`disc_acc_policy`, `disc_acc_expert`)."""
     return {
-        "disc_loss": parts["bce"].item(),
+        "disc_loss": parts["objective"].item(),
         "disc_acc_policy": (parts["logit_p"] < 0).float().mean().item(),
         "disc_acc_expert": (parts["logit_e"] > 0).float().mean().item(),
     }
@@ -161,6 +183,10 @@ Features = Callable[[torch.Tensor, torch.Tensor, torch.Tensor], torch.Tensor]
 """features(s, a, s') -> (N, F) D input, from normalized observations (N, O+1 with the absorbing
 flag last, or N, O without absorbing states), (N, A) actions and next observations like s.
 GAIfO uses (s, s'), GAIL (s, a)."""
+
+
+Head = Callable[[int, tuple[int, ...]], nn.Module]
+"""head(in_dim, hidden) -> a module from (N, in_dim) feature rows to (N, 1) outputs."""
 
 
 class Discriminator(nn.Module):
@@ -179,9 +205,11 @@ class Discriminator(nn.Module):
         hidden: tuple[int, ...],
         with_absorbing: bool,
         obs_dims: int | None = None,
+        head: Head | None = None,
     ) -> None:
         """`obs_shape`: (O,) or O for state vectors, (C, H, W) for flat frames. `obs_dims`: D
-        judges only the first this many of a state vector's O entries (None: all)."""
+        judges only the first this many of a state vector's O entries (None: all). `head`: what
+        maps the feature rows to D's outputs (None: an MLP of `hidden`, tanh)."""
         super().__init__()
         self.norm, self.features, self.with_absorbing = norm, features, with_absorbing
         shape = shape_of(obs_shape)
@@ -195,7 +223,7 @@ class Discriminator(nn.Module):
         zeros = torch.zeros(1, int(np.prod(shape)))
         state = self.state(zeros, torch.zeros(1, dtype=torch.bool))
         in_dim = features(state, torch.zeros(1, act_dim), state).shape[1]
-        self.net = mlp([in_dim, *hidden, 1])
+        self.net = head(in_dim, hidden) if head is not None else mlp([in_dim, *hidden, 1])
 
     def state(self, obs: torch.Tensor, is_absorbing: torch.Tensor) -> torch.Tensor:
         """(N, F+1): the normalized observation (its trunk's features, from frames) and the
