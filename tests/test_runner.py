@@ -561,3 +561,20 @@ def test_a_run_links_what_another_suite_finished_and_runs_the_rest(tmp_path, cli
     assert new[2, "random"].stored_in is None  # no such trial there: it ran
     assert sorted(new) == [(s, a) for s in range(3) for a in ("flaky", "random")]  # all, once
     assert {r.spec.suite for r in new.values()} == {"second"}
+
+
+def test_a_learner_never_timed_is_priced_as_its_optimizers_learners_on_the_env():
+    """A plugin's first run (AIRLfO here, a reward on TRPO): as the TRPO learners that trained
+    on this env, by their median seconds per step; not as the controls, which train no reward,
+    and never for a name of no family."""
+
+    def done(algorithm: str, seconds: float) -> TrialResult:
+        spec = TrialSpec("s", "A", algorithm, 5, 0, 1000, 10)
+        return TrialResult(spec, "ok", [1.0], [], 1000, seconds, {})
+
+    records = [done("gaifo", 10.0), done("gail", 30.0), done("oracle", 2.0)]
+    todo = [TrialSpec("s", "A", name, 5, 1, 2000, 10) for name in ("airlfo", "not-registered")]
+    rows = {r.algorithm: r for r in estimate(todo, records)}
+    assert rows["airlfo"].seconds == pytest.approx(0.02 * 2000)
+    assert rows["airlfo"].basis == "rough: as the trpo learners here (gaifo, gail)"
+    assert rows["not-registered"].seconds is None

@@ -10,6 +10,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from bench.harness import registry
 from bench.harness.types import TrialResult, TrialSpec
 
 
@@ -176,7 +177,35 @@ class CostModel:
             slowest = max(by_env, key=by_env.get)
             shown = slowest if seen is None else f"{slowest} ({seen})"
             return by_env[slowest], f"rough: as on {shown}, the slowest measured"
+        with self.lock:
+            peers = self._family_here(seen, spec.env_id, spec.algorithm)
+        if peers is not None:
+            per_step, family, others = peers
+            return per_step * spec.budget, f"rough: as the {family} learners here ({others})"
         return None, f"no finished {name} trial"
+
+    def _family_here(
+        self, seen: str | None, env_id: str, algorithm: str
+    ) -> tuple[float, str, str] | None:
+        """For a learner never timed anywhere (a plugin's first run): the median seconds per
+        step of the learners of its optimizer family that trained on `env_id` (a new reward
+        on TRPO costs about what GAIfO's does), the family, and their names. None where it has
+        no family or none of its family trained here. Called with the lock held."""
+        role, family, _ = registry.describe(algorithm)
+        if role != "learner" or family is None:
+            return None
+        rates = {
+            other: tally.seconds_per_step()
+            for (o, env, other), tally in self.done.items()
+            if o == seen
+            and env == env_id
+            and tally.trained
+            and other != algorithm
+            and registry.describe(other)[:2] == ("learner", family)
+        }
+        if not rates:
+            return None
+        return float(np.median(list(rates.values()))), family, ", ".join(sorted(rates))
 
     def _scaled(
         self, seen: str | None, env_id: str, algorithm: str
