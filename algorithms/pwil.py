@@ -24,6 +24,7 @@ from typing import Any
 
 import numpy as np
 import torch
+from scipy.spatial.distance import cdist
 
 from bench.harness.learners import ImitationTRPOConfig, one_batch, trpo_on_reward
 from bench.harness.registry import Logger, Policy, Task, register
@@ -82,12 +83,14 @@ class PWILReward(Stateful):
         return {"left": self.left}
 
     def __call__(self, batch: Batch) -> Rewards:
-        states = (batch.next_obs.astype(np.float64) - self.mean) / self.scale
+        states = (batch.flat("next_obs").astype(np.float64) - self.mean) / self.scale
+        # Where each state lies from each atom does not depend on what was spent: all at once.
+        distances = cdist(states, self.atoms).reshape(*batch.rewards.shape, len(self.atoms))
         left = self.left.numpy()  # the tensor's memory: spent in place, saved with snapshots
         costs = np.empty(batch.rewards.shape)
         for t in range(len(costs)):
             left[batch.timesteps[t] == 0] = 1.0 / len(self.atoms)  # an episode starts
-            costs[t] = couple(left, self.atoms, states[t], self.mass)
+            costs[t] = couple(left, distances[t], self.mass)
         r = self.alpha * np.exp(-self.sigma * costs)
         logged = {"reward_mean": float(r.mean()), "coupling_cost": float(costs.mean())}
         return Rewards(r, logged=logged)

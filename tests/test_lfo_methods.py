@@ -82,15 +82,15 @@ def test_wailfo_refuses_settings_that_read_a_classifier():
 
 
 def test_greedy_coupling_by_hand():
-    atoms = np.array([[0.0], [1.0], [2.0], [3.0]])  # mass 1/4 each
+    atoms = np.array([0.0, 1.0, 2.0, 3.0])  # mass 1/4 each
     left = np.full((1, 4), 0.25)
-    agent = np.array([[0.1]])
+    agent = np.abs(atoms - 0.1)[None]  # a state at 0.1: its distances to the atoms
     # Mass 1/2 - SPARE: all of atom 0 (distance 0.1), then atom 1 (0.9) up to the spare.
-    first = couple(left, atoms, agent, 0.5)
+    first = couple(left, agent, 0.5)
     assert first[0] == pytest.approx(0.25 * 0.1 + (0.25 - SPARE) * 0.9)
     assert left[0].tolist() == pytest.approx([0.0, SPARE, 0.25, 0.25])
     # The same state again: atom 0 is spent, so the rest of 1, then 2, then 3 (1.9, 2.9).
-    second = couple(left, atoms, agent, 0.5)
+    second = couple(left, agent, 0.5)
     expected = SPARE * 0.9 + 0.25 * 1.9 + (0.25 - 2 * SPARE) * 2.9
     assert second[0] == pytest.approx(expected)
     assert left.sum() == pytest.approx(2 * SPARE)

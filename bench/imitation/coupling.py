@@ -26,13 +26,13 @@ def standardizer(atoms: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return mean, np.where(std > 0, std, 1.0)
 
 
-def couple(left: np.ndarray, atoms: np.ndarray, agent: np.ndarray, mass: float) -> np.ndarray:
+def couple(left: np.ndarray, distances: np.ndarray, mass: float) -> np.ndarray:
     """One step of each of E episodes: the (E,) costs of moving `mass` from each agent state
-    (E, d) onto the expert `atoms` (N, d), nearest first, out of `left` (E, N), the mass each
-    episode's atoms still hold, which it spends in place."""
-    distances = np.linalg.norm(agent[:, None, :] - atoms[None, :, :], axis=2)
-    costs = np.zeros(len(agent))
-    for e in range(len(agent)):
+    onto the expert atoms, nearest first, given the (E, N) `distances` from each state to each
+    atom, out of `left` (E, N), the mass each episode's atoms still hold, which it spends in
+    place."""
+    costs = np.zeros(len(distances))
+    for e in range(len(distances)):
         held, reach = left[e], np.where(left[e] > 0, distances[e], np.inf)
         to_move = mass - SPARE
         while to_move > 0:
