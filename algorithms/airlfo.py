@@ -50,6 +50,7 @@ class ShapedHead(nn.Module):
     resumable=True,
     description="AIRLfO: discriminator f(s, s') = g(s) + gamma h(s') - h(s)",
     pixels=True,
+    video_reward=True,
     min_budget=one_batch,
     family="trpo",
     label="AIRLfO",

@@ -10,9 +10,9 @@ denominator counts the action's dimensions even state-only, and so does this). T
 starts afresh with each episode.
 
 Departures: TRPO with the imitators' settings rather than D4PG, so that PWIL differs from GAIfO
-in its reward alone; and the state coupled is the one each step reaches, s', not the one it
-starts from (the paper's state-only variant leaves this open): then each step's reward depends
-on its own action, and an episode's last state is paid too. The reward is positive, as the
+in its reward alone; and the state coupled is the one each step reaches, s', where the authors'
+code couples the one it starts from, s: then each step's reward depends on its own action
+(TRPO's advantage credits it at once), and an episode's last state is paid too. The reward is positive, as the
 paper's: a step alive is always worth more than the end of an episode, which the `survival`
 control prices.
 """

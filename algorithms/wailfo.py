@@ -52,6 +52,7 @@ class WAILfOConfig(AdversarialConfig):
     resumable=True,
     description="WAILfO: Wasserstein critic on (s, s'), its value the reward",
     pixels=True,
+    video_reward=True,
     min_budget=one_batch,
     family="trpo",
     label="WAILfO",

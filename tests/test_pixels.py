@@ -103,7 +103,7 @@ def tiny_suite(tmp_path, monkeypatch, observation: str) -> list:
     gaifo = "{n_envs: 2, steps_per_env: 64, disc_minibatch: 64}"  # D's draws: one batch at most
     (tmp_path / "s.yaml").write_text(
         f"name: tiny\nenvs: {{{PENDULUM}: {{budget: 256, observation: {observation}}}}}\n"
-        f"demos: [1]\nalgorithms: [random, expert, gaifo: {gaifo}, survival: {tiny},"
+        f"demos: [1]\nalgorithms: [random, expert, gaifo: {gaifo}, airlfo: {gaifo}, survival: {tiny},"
         f" tcn: {{n_envs: 2, steps_per_env: 64, embed_steps: 5}}]\n"
         "seeds: [0]\neval_episodes: 2\n"
     )
@@ -117,9 +117,9 @@ def test_a_tiny_pixel_suite_runs_end_to_end(tmp_path, monkeypatch):
     assert {trial.plan(s).pixels.shape for s in specs if s.algorithm != "expert"} == {(4, 32, 32)}
     assert run_suite(specs, tmp_path / "res", jobs=2, progress=False).failed == 0
     records = {r.spec.algorithm: r for r in store.scan(tmp_path / "res")}
-    assert set(records) == {"random", "expert", "gaifo", "survival", "tcn"}
+    assert set(records) == {"random", "expert", "gaifo", "airlfo", "survival", "tcn"}
     assert records["expert"].returns == [1000.0, 1000.0], "the expert still acts on states"
-    for learner in ("gaifo", "survival", "tcn"):
+    for learner in ("gaifo", "airlfo", "survival", "tcn"):  # AIRLfO: its shaped D on frames
         assert records[learner].env_steps == 256 and len(records[learner].logs["kl"]) == 2
     assert {"disc_loss", "reward_absorbing"} <= set(records["gaifo"].logs)
     # a pixel learner is filmed from what it saw, beside the full view: two squares per panel
