@@ -259,12 +259,17 @@ def test_the_verdict_says_differs_of_at_most_5_percent_of_splits_of_one_sample()
     calls = []
     for half in itertools.combinations(range(10), 5):
         a, b = scores[list(half)], np.delete(scores, list(half))
-        calls.append(agreement.verdict_of(a, b, agreement.permutation_p(a, b)) == "differs")
+        seeds = pd.Series(a, index=list(half)), pd.Series(b)
+        calls.append(agreement.verdict_of(*seeds, agreement.permutation_p(a, b)) == "differs")
     assert 0 < np.mean(calls) <= agreement.ALPHA
     separated = agreement.permutation_p(np.zeros(5), np.ones(5))
-    assert (
-        separated < agreement.ALPHA
-        and agreement.verdict_of(np.zeros(5), np.ones(5), separated) == "differs"
+    low, high = pd.Series(np.zeros(5)), pd.Series(np.ones(5))
+    assert separated < agreement.ALPHA and agreement.verdict_of(low, high, separated) == "differs"
+    # Identical: each seed of the run scores what the reference's same seed does, to the bit,
+    # though the reference hold more seeds; the same scores on other seeds are not.
+    reference = pd.Series(scores)
+    assert agreement.verdict_of(reference[:5], reference, 1.0) == "identical"
+    assert agreement.verdict_of(pd.Series(scores[:5], index=range(5, 10)), reference, 1.0) == (
+        "agrees"
     )
-    assert agreement.verdict_of(scores, scores[::-1].copy(), 1.0) == "identical"
     assert agreement.permutation_p(np.ones(3), np.zeros(3)) == pytest.approx(0.1)  # 3 seeds: never

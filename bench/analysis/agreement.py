@@ -79,10 +79,19 @@ def permutation_p(run: np.ndarray, ref: np.ndarray, seed: int = 0) -> float:
     return float(np.mean(split >= observed - 1e-9))
 
 
-def verdict_of(run: np.ndarray, ref: np.ndarray, p: float) -> str:
-    """ "identical" where both samples hold the same scores (a rerun computed to the bit),
-    "differs" where p < ALPHA, else "agrees"."""
-    if len(run) == len(ref) and np.array_equal(np.sort(run), np.sort(ref)):
+def reproduced(run: pd.Series, ref: pd.Series) -> bool:
+    """Whether every seed of the run (scores indexed by seed) has the score the reference has
+    for that seed, to the bit: a rerun of those very trials where the reference was made. The
+    reference may hold more seeds than the run."""
+    return set(run.index) <= set(ref.index) and np.array_equal(
+        run.to_numpy(), ref.loc[run.index].to_numpy()
+    )
+
+
+def verdict_of(run: pd.Series, ref: pd.Series, p: float) -> str:
+    """ "identical" where the run reproduces the reference's scores seed for seed
+    (`reproduced`), "differs" where p < ALPHA, else "agrees"."""
+    if reproduced(run, ref):
         return "identical"
     return "differs" if p < ALPHA else "agrees"
 
@@ -112,13 +121,20 @@ def iqm_difference(
     }
 
 
+def by_seed(frame: pd.DataFrame) -> dict[tuple, pd.Series]:
+    """A normalized frame's scores by seed, per compared cell (COMPARE_KEYS)."""
+    return {
+        key: cell.set_index("seed")["normalized"].dropna().sort_index()
+        for key, cell in frame.groupby(COMPARE_KEYS)
+    }
+
+
 def compare(run: pd.DataFrame, ref: pd.DataFrame, reps: int = 2000, seed: int = 0) -> pd.DataFrame:
     """Per env, algorithm and demo count present in both normalized frames: each one's IQM over
     seeds with a 95% CI, the difference's CI, the permutation test's p (`permutation_p`) and
     a verdict (`verdict_of`). Columns: COMPARE_COLUMNS. Raises ComparisonError when no cell is
     in both."""
-    run_cells = {k: g["normalized"].dropna().to_numpy() for k, g in run.groupby(COMPARE_KEYS)}
-    ref_cells = {k: g["normalized"].dropna().to_numpy() for k, g in ref.groupby(COMPARE_KEYS)}
+    run_cells, ref_cells = by_seed(run), by_seed(ref)
     shared = [
         k for k in sorted(run_cells) if k in ref_cells and len(run_cells[k]) and len(ref_cells[k])
     ]
@@ -129,10 +145,10 @@ def compare(run: pd.DataFrame, ref: pd.DataFrame, reps: int = 2000, seed: int = 
         )
     rows = []
     for i, key in enumerate(shared):
-        a, b = run_cells[key], ref_cells[key]
+        a, b = run_cells[key].to_numpy(), ref_cells[key].to_numpy()
         d = iqm_difference(a, b, reps, seed + i)
         p = permutation_p(a, b, seed + i)
-        verdict = verdict_of(a, b, p)
+        verdict = verdict_of(run_cells[key], ref_cells[key], p)
         rows.append(
             {
                 **dict(zip(COMPARE_KEYS, key, strict=True)),

@@ -92,7 +92,7 @@ def compare_table(
         " of normalized returns over seeds (seed count in parentheses), both normalized with the"
         " reference's random and expert returns; a row differs when a rank test by permutation"
         " gives p < 0.05 (under one distribution, 5% of rows at most), and is"
-        " identical when both hold the same scores.",
+        " identical when each of its seeds scores what the reference's same seed does, to the bit.",
     ]
     if any(unlike):
         lines.append(

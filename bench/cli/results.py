@@ -158,7 +158,7 @@ def add(sub: argparse._SubParsersAction) -> None:
         " algorithms of one folder",
         description="Per env, algorithm and demo count in both folders (or per env and demo"
         " count, two algorithms of one folder with --between): each side's IQM over seeds with"
-        " a 95% CI, and a verdict: identical (the same scores), differs (a rank test by"
+        " a 95% CI, and a verdict: identical (each seed scores as the reference's same seed), differs (a rank test by"
         " permutation gives p < 0.05: under one distribution 5% of rows at most) or agrees.",
     )
     cmp.add_argument("run", help="a suite's results folder, e.g. runs/quick")
