@@ -424,3 +424,18 @@ def test_a_reader_that_leaves_early_ends_the_output_quietly(tmp_path):
     bench.stdout.close()
     stderr = bench.stderr.read()
     assert bench.wait() == 0 and "Traceback" not in stderr, stderr
+
+
+def test_no_reuse_trains_what_the_committed_results_hold(bench_here, tmp_path):
+    """`make run` checks the committed reference by training its trials anew: without
+    --no-reuse the run would link them from results/quick and compare them with themselves."""
+    from bench import paths
+
+    suite = str(paths.REPO_ROOT / "suites" / "quick.yaml")
+    where = ["--results", str(tmp_path / "quick"), "--estimate"]
+    linked = bench_here("run", suite, *where)
+    assert linked.returncode == 0 and "0 of 50 trials pending" in linked.stdout, linked
+    fresh = bench_here("run", suite, *where, "--no-reuse")
+    assert fresh.returncode == 0 and "50 of 50 trials pending" in fresh.stdout, fresh
+    both = bench_here("run", suite, *where, "--no-reuse", "--reuse", str(tmp_path))
+    assert both.returncode == 2 and "not allowed with" in both.stderr

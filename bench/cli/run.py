@@ -40,6 +40,8 @@ def _run(args: argparse.Namespace) -> int:
     # Finished trials are looked for beside the results folder, in the checkout's committed
     # results (whatever --results says) and in every folder named by --reuse.
     reuse = [results.parent, paths.RESULTS_DIR, *map(Path, args.reuse or ())]
+    if args.no_reuse:
+        reuse = []
     if args.estimate:
         return _estimate(specs, results, jobs, reuse)
     from bench.demos import minari_io
@@ -244,13 +246,20 @@ def _add_run_control(run: argparse.ArgumentParser) -> None:
     run.add_argument(
         "--jobs", type=jobs_count, help="parallel trials (default: the suite's, else all cores)"
     )
-    run.add_argument(
+    reuse = run.add_mutually_exclusive_group()
+    reuse.add_argument(
         "--reuse",
         action="append",
         metavar="DIR",
         type=existing_folder,
         help="also link trials finished in results folders under DIR instead of running them"
         " (repeatable; the results folder's parent and the checkout's results/ always are)",
+    )
+    reuse.add_argument(
+        "--no-reuse",
+        action="store_true",
+        help="link nothing finished elsewhere: train every trial this folder lacks (a rerun that"
+        " checks committed records, as `make run` does)",
     )
     run.add_argument("--retry-failed", action="store_true", help="rerun trials recorded as failed")
     run.add_argument(
