@@ -266,7 +266,7 @@ def test_the_verdict_says_differs_of_at_most_5_percent_of_splits_of_one_sample()
     low, high = pd.Series(np.zeros(5)), pd.Series(np.ones(5))
     assert separated < agreement.ALPHA and agreement.verdict_of(low, high, separated) == "differs"
     # Identical: each seed of the run scores what the reference's same seed does, to the bit,
-    # though the reference hold more seeds; the same scores on other seeds are not.
+    # though the reference holds more seeds; the same scores on other seeds are not.
     reference = pd.Series(scores)
     assert agreement.verdict_of(reference[:5], reference, 1.0) == "identical"
     assert agreement.verdict_of(pd.Series(scores[:5], index=range(5, 10)), reference, 1.0) == (
