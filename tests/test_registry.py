@@ -141,6 +141,15 @@ def test_a_broken_plugin_is_named_once_and_the_rest_works(tmp_path, cli, install
     warning = [line for line in out.stderr.splitlines() if "broken-ifo" in line]
     assert len(warning) == 1 and "ZeroDivisionError" in warning[0]
     assert "gaifo" in out.stdout and "broken-ifo" not in out.stdout
+    # A run says it once too, not once per trial from its workers.
+    suite = tmp_path / "s.yaml"
+    suite.write_text(
+        "envs: {InvertedPendulumBulletEnv-v0: {budget: 2048}}\ndemos: [1]\n"
+        "algorithms: [random, expert]\nseeds: 3\neval_episodes: 1\n"
+    )
+    out = cli("run", str(suite), "--results", str(tmp_path / "res"), "--jobs", "2", env=env)
+    assert out.returncode == 0, out.stderr
+    assert sum("broken-ifo" in line for line in out.stderr.splitlines()) == 1, out.stderr
 
 
 def test_a_plugin_that_takes_a_builtin_name_is_an_error_naming_both(tmp_path, cli, install_plugin):

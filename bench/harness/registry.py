@@ -184,6 +184,11 @@ class Algorithm:
         return self.config(**overrides)
 
 
+class BrokenPluginWarning(UserWarning):
+    """A plugin of the entry-point group failed to import: said once, by the process that
+    loads the suite (a run's workers keep quiet about it)."""
+
+
 class RegistryError(BadInput, KeyError):
     def __str__(self) -> str:
         return str(self.args[0])
@@ -316,7 +321,7 @@ def _load_all() -> None:
             for name in {ep.name, *(set(_ALGORITHMS) - before)}:
                 _ALGORITHMS.pop(name, None)
                 _BROKEN[name] = why
-            warnings.warn(f"{why}; none of its algorithms runs", stacklevel=2)
+            warnings.warn(f"{why}; none of its algorithms runs", BrokenPluginWarning, stacklevel=2)
 
 
 def _origin(train: TrainFn) -> str:

@@ -11,6 +11,7 @@ from __future__ import annotations
 import copy
 import time
 import traceback
+import warnings
 from dataclasses import dataclass, field
 from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
@@ -288,6 +289,11 @@ def run_trial_apart(
     run's pool, which must die with the run's driver."""
     if in_worker:
         die_with_parent()
+        # Loaded here once, each trial's fork inherits the registry rather than importing every
+        # plugin again, and a broken one is not warned about once per trial: the driver has.
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", registry.BrokenPluginWarning)
+            registry.all_algorithms()
     start = time.time()
     stop_at = None if snapshots is None or snapshots.stop_at is None else snapshots.stop_at
     limits = [timeout] if timeout is not None else []
