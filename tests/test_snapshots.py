@@ -50,6 +50,9 @@ LEARNERS = {
         f"[{{gaifo: {{{ON_POLICY}, disc_hidden: [16, 16]}}}},"
         f" {{tcn: {{{ON_POLICY}, embed_steps: 50}}}}]",
     ),
+    # pwil: a reward whose state, each env's coupling, runs on across TRPO's batches and
+    # episodes cut by the snapshot
+    "on-policy reward state": (10240, f"[{{pwil: {{{ON_POLICY}}}}}]"),
     # bco: an inverse model and the agent's own data, grown each iteration; float64 actions
     "bco": (
         6000,
