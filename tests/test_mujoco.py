@@ -27,6 +27,9 @@ algorithms:
   - {{algorithm: bco, pre_demo_steps: 1000, n_envs: 2, inverse_steps: 30, alpha: 0.5,
       inverse_refit_steps: 10, bc_steps: 20, minibatch: 64}}
   - {{algorithm: tcn, {TINY_TRPO}, embed_steps: 20, embed_minibatch: 32}}
+  - {{algorithm: airlfo, {TINY_TRPO}, disc_minibatch: 64}}
+  - {{algorithm: wailfo, {TINY_TRPO}, disc_minibatch: 64}}
+  - {{algorithm: pwil, {TINY_TRPO}}}
   - {{algorithm: survival, {TINY_TRPO}}}
   - {{algorithm: oracle, {TINY_TRPO}}}
   - {{algorithm: gaifo-sac, {TINY_SAC}}}

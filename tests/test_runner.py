@@ -383,7 +383,8 @@ def test_time_left_is_the_expected_seconds_over_the_workers():
         return TrialSpec("t", PENDULUM, algorithm, 0, seed, budget, 1)
 
     costs = CostModel.of([finished(spec("gaifo", 0), 1800.0)])  # half an hour per 1,000 steps
-    todo = [spec("gaifo", 1), spec("gaifo", 2, budget=2000), spec("bco", 1)]
+    # a learner of no known family and never timed: nothing to price it by
+    todo = [spec("gaifo", 1), spec("gaifo", 2, budget=2000), spec("not-installed", 1)]
     assert costs.time_left(todo[:2], workers=1) == "~1.5 h"
     assert costs.time_left(todo, workers=2) == "~45 min +1 unpriced"
     assert costs.time_left(todo[2:], workers=1) == "unknown (1 trials of kinds never timed)"
