@@ -2,7 +2,7 @@
 committed reference happened to draw.
 
     python benchmarks/reference_size.py [results/quick results/quick-draws]
-        [--sizes 5 10 15 20] [--references 40] [--runs 100]
+        [--sizes 5 10 15 20] [--references 40] [--runs 100] [--alpha 0.01]
 
 The rank test holds its 5% over fresh draws of both sides. A newcomer meets one committed
 reference, though, and against an unlucky one (its five seeds all low, say) a fresh run
@@ -28,7 +28,9 @@ RUN_SEEDS = 5
 """Seeds of a newcomer's run (the quick suite's)."""
 
 
-def rates(pool: np.ndarray, size: int, references: int, runs: int, seed: int) -> np.ndarray:
+def rates(
+    pool: np.ndarray, size: int, references: int, runs: int, seed: int, alpha: float
+) -> np.ndarray:
     """Per reference of `size` scores drawn from `pool`: the share of `runs` runs of
     RUN_SEEDS other scores that `bench compare` calls different from it."""
     rng = np.random.default_rng(seed)
@@ -42,7 +44,7 @@ def rates(pool: np.ndarray, size: int, references: int, runs: int, seed: int) ->
             picked = rng.choice(rest, RUN_SEEDS, replace=False)
             run = pd.Series(pool[picked], index=picked)
             p = agreement.permutation_p(run.to_numpy(), ref.to_numpy())
-            differs += agreement.verdict_of(run, ref, p) == "differs"
+            differs += agreement.verdict_of(run, ref, p, alpha) == "differs"
         out.append(differs / runs)
     return np.array(out)
 
@@ -53,12 +55,16 @@ def main() -> None:
     parser.add_argument("--sizes", type=int, nargs="+", default=[5, 10, 15, 20])
     parser.add_argument("--references", type=int, default=40)
     parser.add_argument("--runs", type=int, default=100)
+    parser.add_argument("--alpha", type=float, default=agreement.ALPHA)
     args = parser.parse_args()
-    trials = pd.concat([frames.load(f) for f in args.folders], ignore_index=True)
-    trials["suite"] = "pooled"  # one distribution: the same trials on other seeds
+    # one distribution: the same trials on other seeds
+    trials = agreement.pooled([(f, frames.load(f)) for f in args.folders])
     scored = normalize.normalize(trials)
     names = labels.Names.of(trials)
-    print(f"{args.references} references per size, {args.runs} runs of {RUN_SEEDS} against each")
+    print(
+        f"{args.references} references per size, {args.runs} runs of {RUN_SEEDS} against each,"
+        f" p < {args.alpha:g}"
+    )
     print(f"{'env':36s}{'algorithm':10s}{'seeds':>6s}" + "".join(f"{m:>18d}" for m in args.sizes))
     print(" " * 52 + "".join(f"{'mean/p90/worst':>18s}" for _ in args.sizes))
     everywhere: dict[int, list[float]] = {m: [] for m in args.sizes}
@@ -68,7 +74,7 @@ def main() -> None:
             continue
         shown = []
         for m in args.sizes:
-            r = rates(pool, m, args.references, args.runs, seed=i)
+            r = rates(pool, m, args.references, args.runs, seed=i, alpha=args.alpha)
             everywhere[m].extend(r)
             shown.append(f"{r.mean():.1%}/{np.quantile(r, 0.9):.0%}/{r.max():.0%}".rjust(18))
         print(f"{key[0]:36s}{names.label(key[1]):10s}{len(pool):6d}" + "".join(shown))

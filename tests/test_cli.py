@@ -1,5 +1,6 @@
 """Bad input at the command line: one clear line, exit status 2, results untouched."""
 
+import subprocess
 from pathlib import Path
 
 import pytest
@@ -231,6 +232,7 @@ def test_experts_train_refuses_a_file_as_its_folder(tmp_path, bench_here):
         (["report", "{results}", "--reps", "0"], "--reps: must be >= 1, not 0"),
         (["report", "{results}", "--out", "{file}"], "is a file, not a folder"),
         (["compare", "{results}", "{results}", "--reps", "-3"], "must be >= 1"),
+        (["compare", "{results}", "{results}", "--alpha", "5"], "not a level between 0 and 1"),
         (["demos", "export", PENDULUM, "{file}", "--references", "{results}"], "is a file"),
         (["experts", "train", PENDULUM, "--n-envs", "0"], "--n-envs: must be >= 1"),
         (["video", "{results}", "--out", "{file}.gif", "--steps", "0"], "--steps: must be >= 1"),
@@ -439,3 +441,8 @@ def test_no_reuse_trains_what_the_committed_results_hold(bench_here, tmp_path):
     assert fresh.returncode == 0 and "50 of 50 trials pending" in fresh.stdout, fresh
     both = bench_here("run", suite, *where, "--no-reuse", "--reuse", str(tmp_path))
     assert both.returncode == 2 and "not allowed with" in both.stderr
+    # and compares them with the reference pooled with its fresh draws (55 seeds a cell)
+    plan = subprocess.run(
+        ["make", "-n", "run"], cwd=paths.REPO_ROOT, capture_output=True, text=True, check=True
+    )
+    assert "bench compare runs/quick results/quick results/quick-draws" in plan.stdout

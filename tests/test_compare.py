@@ -11,6 +11,7 @@ from bench.analysis import agreement
 from bench.harness import frames, store
 
 REFERENCE = Path(__file__).parents[1] / "results" / "quick"
+DRAWS = REFERENCE.with_name("quick-draws")  # the quick suite on 50 more seeds
 
 
 def verdicts(stdout: str) -> dict[tuple[str, str, str], str]:
@@ -112,3 +113,24 @@ def test_only_like_is_compared_with_like(tmp_path, cli):
     out = cli("compare", str(every), str(REFERENCE), "--reps", "200")
     assert out.returncode == 2 and out.stderr.count("\n") == 1
     assert "budgets" in out.stderr, out.stderr
+
+
+def test_a_reference_pooled_from_folders_of_other_seeds(tmp_path, cli):
+    """`bench compare RUN REF MORE`: the reference is the records of both (55 seeds a cell);
+    the reference's own 5 seeds are identical to their like in the pool, 5 of the fresh
+    draws agree with it, and two folders that both hold one seed are refused in one line."""
+    out = cli("compare", str(REFERENCE), str(REFERENCE), str(DRAWS), "--reps", "200")
+    assert out.returncode == 0, out.stderr
+    assert set(verdicts(out.stdout).values()) == {"identical"} and "(55)" in out.stdout
+    five = tmp_path / "five"
+    copy_folder(DRAWS, five)
+    rewrite(five, lambda r: r if r.spec.seed in range(5, 10) else None)
+    rest = tmp_path / "rest"
+    copy_folder(DRAWS, rest)
+    rewrite(rest, lambda r: r if r.spec.seed not in range(5, 10) else None)
+    out = cli("compare", str(five), str(REFERENCE), str(rest), "--reps", "200")
+    assert out.returncode == 0, out.stderr
+    assert set(verdicts(out.stdout).values()) == {"agrees"} and "(50)" in out.stdout
+    out = cli("compare", str(REFERENCE), str(five), str(DRAWS))
+    assert out.returncode == 2 and out.stderr.count("\n") == 1
+    assert "both hold" in out.stderr and "seed 5" in out.stderr

@@ -11,6 +11,7 @@ from collections.abc import Sequence
 import pandas as pd
 
 from bench.analysis import labels
+from bench.analysis.agreement import ALPHA
 from bench.analysis.comparisons import POOLED
 from bench.analysis.labels import Names
 from bench.analysis.markdown import demos_title, interval, mean_std, pair_label, steps, table
@@ -54,9 +55,11 @@ def compare_table(
     reference: str,
     names: Names,
     unlike: tuple[int, int] = (0, 0),
+    alpha: float = ALPHA,
 ) -> str:
     """Markdown: per env, algorithm and demo count, IQM [95% CI] of the run and the reference,
-    their difference and the verdict (agreement.compare); then how many rows agree."""
+    their difference and the verdict (agreement.compare at `alpha`); then how many rows
+    agree."""
     header = ["env", "algorithm", "demos", f"run ({run})", f"reference ({reference})"]
     header += ["run - ref [95% CI]", "verdict"]
     envs, algorithms = (
@@ -91,7 +94,7 @@ def compare_table(
         f"{agree} of {len(comparison)} rows agree{f' ({same} identical)' if same else ''}. IQM"
         " of normalized returns over seeds (seed count in parentheses), both normalized with the"
         " reference's random and expert returns; a row differs when a rank test by permutation"
-        " gives p < 0.05 (under one distribution, 5% of rows at most), and is"
+        f" gives p < {alpha:g} (of fresh draws of one distribution, {alpha:.0%} of rows), and is"
         " identical when each of its seeds scores what the reference's same seed does, to the bit.",
     ]
     if any(unlike):

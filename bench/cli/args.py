@@ -32,6 +32,17 @@ def at_least(low: int) -> Callable[[str], int]:
     return parse
 
 
+def level(text: str) -> float:
+    """A significance level: a number strictly between 0 and 1."""
+    try:
+        value = float(text)
+    except ValueError:
+        value = -1.0
+    if not 0 < value < 1:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a level between 0 and 1, e.g. 0.01")
+    return value
+
+
 def jobs_count(text: str) -> int:
     """argparse type: parallel jobs, >= 1, or -1 for every core."""
     value = at_least(-1)(text)

@@ -7,7 +7,7 @@ import sys
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from bench.cli.args import at_least, out_file, output_folder
+from bench.cli.args import at_least, level, out_file, output_folder
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -69,23 +69,27 @@ def _compare(args: argparse.Namespace) -> int:
     from bench.analysis import agreement, comparisons, labels, normalize, tables
     from bench.errors import BadInput
 
-    if (args.reference is None) == (args.between is None):
+    if bool(args.reference) == (args.between is not None):
         raise BadInput("compare: name a reference folder, or two algorithms with --between A B")
+    alpha = agreement.ALPHA if args.alpha is None else args.alpha
     if args.between is not None:
         trials = _one_suite(args.run)
         a, b = (_algorithm_named(name, trials, args.run) for name in args.between)
         df = normalize.normalize(trials)
         run_df, ref_df = comparisons.between(df, a, b)
         names = labels.Names.of(df)
-        comparison = agreement.compare(run_df, ref_df, reps=args.reps)
-        print(tables.compare_table(comparison, names.label(a), names.label(b), names))
+        comparison = agreement.compare(run_df, ref_df, reps=args.reps, alpha=alpha)
+        table = tables.compare_table(comparison, names.label(a), names.label(b), names, alpha=alpha)
+        print(table)
         return 0
-    run, ref = (_one_suite(args.run), _one_suite(args.reference))
+    run = _one_suite(args.run)
+    ref = agreement.pooled([(folder, _one_suite(folder)) for folder in args.reference])
     run_df, ref_df = normalize.normalized_alike(run, ref)
-    comparison = agreement.compare(run_df, ref_df, reps=args.reps)
+    comparison = agreement.compare(run_df, ref_df, reps=args.reps, alpha=alpha)
     names = labels.Names.of(run_df, ref_df)
     unlike = agreement.unlike(run_df, ref_df)
-    print(tables.compare_table(comparison, str(args.run), str(args.reference), names, unlike))
+    reference = " + ".join(args.reference)
+    print(tables.compare_table(comparison, str(args.run), reference, names, unlike, alpha))
     return 0
 
 
@@ -158,12 +162,22 @@ def add(sub: argparse._SubParsersAction) -> None:
         " algorithms of one folder",
         description="Per env, algorithm and demo count in both folders (or per env and demo"
         " count, two algorithms of one folder with --between): each side's IQM over seeds with"
-        " a 95% CI, and a verdict: identical (each seed scores as the reference's same seed), differs (a rank test by"
-        " permutation gives p < 0.05: under one distribution 5% of rows at most) or agrees.",
+        " a 95% CI, and a verdict: identical (each seed scores as the reference's same seed),"
+        " differs (a rank test by permutation gives p < 0.01, or --alpha: of fresh draws of"
+        " one distribution, that share of rows) or agrees.",
     )
     cmp.add_argument("run", help="a suite's results folder, e.g. runs/quick")
     cmp.add_argument(
-        "reference", nargs="?", help="the folder to compare against, e.g. results/quick"
+        "reference",
+        nargs="*",
+        help="the folder to compare against, e.g. results/quick; several are pooled into one"
+        " reference (the same suite on other seeds: results/quick results/quick-draws)",
+    )
+    cmp.add_argument(
+        "--alpha",
+        type=level,
+        default=None,
+        help="a row differs when the rank test's p is below this (default 0.01)",
     )
     cmp.add_argument(
         "--between",
