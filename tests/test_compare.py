@@ -134,3 +134,8 @@ def test_a_reference_pooled_from_folders_of_other_seeds(tmp_path, cli):
     out = cli("compare", str(REFERENCE), str(five), str(DRAWS))
     assert out.returncode == 2 and out.stderr.count("\n") == 1
     assert "both hold" in out.stderr and "seed 5" in out.stderr
+    empty = tmp_path / "empty"
+    (empty / "trials").mkdir(parents=True)
+    out = cli("compare", str(five), str(REFERENCE), str(empty))
+    assert out.returncode == 2 and out.stderr.count("\n") == 1, out.stderr
+    assert "no readable trial record" in out.stderr

@@ -105,8 +105,8 @@ def pooled(folders: Sequence[tuple[str, pd.DataFrame]]) -> pd.DataFrame:
     """The trial records of several folders of one suite's trials on other seeds (a reference
     and more draws of it) as one reference, under the first folder's suite name. Raises
     ComparisonError, naming both folders, where two of them hold a record of one seed of one
-    cell: the same trial twice would count twice."""
-    named = [frame.assign(folder=name) for name, frame in folders if len(frame)]
+    cell: the same trial twice would count twice. Each frame holds records."""
+    named = [frame.assign(folder=name) for name, frame in folders]
     both = pd.concat(named, ignore_index=True)
     keys = [*COMPARE_KEYS, "seed"]
     twice = both[both.duplicated(keys, keep=False)]

@@ -108,7 +108,7 @@ def _algorithm_named(name: str, trials: pd.DataFrame, folder: str | Path) -> str
 
 
 def _one_suite(folder: str) -> pd.DataFrame:
-    """The trial records of the one suite in `folder`."""
+    """The trial records of the one suite in `folder` (FileNotFoundError where it has none)."""
     from bench.harness import frames, store
 
     dirs = store.suite_dirs(folder)
@@ -116,7 +116,10 @@ def _one_suite(folder: str) -> pd.DataFrame:
         raise FileNotFoundError(
             f"{folder} holds {len(dirs)} suites' records ({', '.join(map(str, dirs))}); name one"
         )
-    return frames.load(dirs[0])
+    trials = frames.load(dirs[0])
+    if trials.empty:
+        raise FileNotFoundError(f"{store.trials_dir(dirs[0])}: no readable trial record")
+    return trials
 
 
 def add(sub: argparse._SubParsersAction) -> None:
