@@ -122,12 +122,8 @@ def test_a_reference_pooled_from_folders_of_other_seeds(tmp_path, cli):
     out = cli("compare", str(REFERENCE), str(REFERENCE), str(DRAWS), "--reps", "200")
     assert out.returncode == 0, out.stderr
     assert set(verdicts(out.stdout).values()) == {"identical"} and "(55)" in out.stdout
-    five = tmp_path / "five"
-    copy_folder(DRAWS, five)
-    rewrite(five, lambda r: r if r.spec.seed in range(5, 10) else None)
-    rest = tmp_path / "rest"
-    copy_folder(DRAWS, rest)
-    rewrite(rest, lambda r: r if r.spec.seed not in range(5, 10) else None)
+    five = copy_folder(DRAWS, tmp_path / "five", keep=lambda r: r.spec.seed in range(5, 10))
+    rest = copy_folder(DRAWS, tmp_path / "rest", keep=lambda r: r.spec.seed not in range(5, 10))
     out = cli("compare", str(five), str(REFERENCE), str(rest), "--reps", "200")
     assert out.returncode == 0, out.stderr
     assert set(verdicts(out.stdout).values()) == {"agrees"} and "(50)" in out.stdout
