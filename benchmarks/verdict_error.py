@@ -7,9 +7,9 @@ two halves of 5 seeds, every way there is (126 distinct splits) or `--splits` of
 halves are draws of the same distribution (same code, same settings, seeds apart), as a
 newcomer's `make run` and the committed reference are. Each split is judged as `bench
 compare` judges a row, by the bootstrap CI of the IQM difference excluding 0 (the old rule)
-and by the permutation test at p < 0.05 (`agreement.permutation_p`, the rule now). Prints the
-share of splits called "differs" over all cells, per folder, and the worst cells: a rule
-that holds its 5% is at or under 0.05 in every cell.
+and by the permutation test at p < `agreement.ALPHA` (`agreement.permutation_p`, the rule
+now: 0.01). Prints the share of splits called "differs" over all cells, per folder, and the
+worst cells: a rule that holds its level is at or under it in every cell.
 """
 
 from __future__ import annotations

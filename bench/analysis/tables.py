@@ -94,7 +94,7 @@ def compare_table(
         f"{agree} of {len(comparison)} rows agree{f' ({same} identical)' if same else ''}. IQM"
         " of normalized returns over seeds (seed count in parentheses), both normalized with the"
         " reference's random and expert returns; a row differs when a rank test by permutation"
-        f" gives p < {alpha:g} (of fresh draws of one distribution, {alpha:.0%} of rows), and is"
+        f" gives p < {alpha:g} (of fresh draws of one distribution, {alpha * 100:g}% of rows), and is"
         " identical when each of its seeds scores what the reference's same seed does, to the bit.",
     ]
     if any(unlike):
