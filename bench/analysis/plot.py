@@ -176,6 +176,43 @@ def draw_iqm_curves(frame: pd.DataFrame, title: str, names: Names) -> Figure:
     return fig
 
 
+def draw_budget_curves(frame: pd.DataFrame, title: str, names: Names) -> Figure:
+    """Per env, each learner's IQM learning curve at every budget (`curves.iqm_curves` rows
+    plus a `budget` column), band the 95% CI; the shorter budgets dashed and ended by a dotted
+    line, so a short run's end is seen on the way of the longest."""
+    envs = env_order(frame["env_id"].unique())
+    algos = names.order(frame["algorithm"].unique())
+    colors = algorithm_colors(algos)
+    with sns.axes_style("whitegrid"), sns.plotting_context("paper"):
+        fig, axes = _panels(len(envs), width=2.6, height=2.0)
+        for ax, env_id in zip(axes, envs, strict=False):
+            at_env = frame[frame["env_id"] == env_id]
+            longest = at_env["budget"].max()
+            for (budget, a), rows in at_env.groupby(["budget", "algorithm"]):
+                rows = rows.sort_values("env_steps")
+                style = {"ls": "--", "lw": 1.0} if budget < longest else {"ls": "-", "lw": 1.4}
+                ax.plot(rows["env_steps"], rows["iqm"], color=colors[a], **style)
+                ax.fill_between(
+                    rows["env_steps"], rows["lo"], rows["hi"], color=colors[a], alpha=0.15, lw=0
+                )
+            for budget in at_env["budget"].unique():
+                if budget < longest:
+                    ax.axvline(budget, color="0.5", lw=0.8, ls=":")
+            _reference_lines(ax)
+            ax.set_title(env_label(env_id))
+            ax.set_xlim(left=0)
+            ax.xaxis.set_major_formatter(EngFormatter(sep=""))
+        fig.supxlabel("Environment steps", fontsize="medium")
+        fig.supylabel("Normalized return (IQM)", fontsize="medium")
+        handles = [Line2D([], [], color=colors[a], label=names.label(a)) for a in algos]
+        handles += [
+            Line2D([], [], color="0.3", lw=1.4, label="longest budget"),
+            Line2D([], [], color="0.3", ls="--", lw=1.0, label="a shorter one, to the dotted line"),
+        ]
+        _legend_and_titles(fig, handles, title, names.starred(algos))
+    return fig
+
+
 def draw_seed_curves(curves: pd.DataFrame, title: str, names: Names) -> Figure:
     """Every seed's own learning curve (normalized `curves` of one demo count): a row of
     panels per env, one panel per learner, one line per seed. Where the IQM shows a slow

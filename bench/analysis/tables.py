@@ -197,3 +197,35 @@ def report_tables(aggregates: pd.DataFrame, improvement: pd.DataFrame, names: Na
     if not parts:
         return "No aggregate statistics: no learning algorithm in these records.\n"
     return "\n\n".join(p.strip() for p in parts) + "\n"
+
+
+def budgets_table(rows: pd.DataFrame, names: Names) -> str:
+    """Markdown: `budgets.statistics` rows, a table per env (its own budgets as columns) with a
+    row per demonstration count and learner; per budget, the IQM [CI] (seeds) and the fraction
+    of the oracle at that budget [CI] (worst seed's fraction)."""
+    cells = rows.set_index(["env_id", "n_demos", "algorithm", "budget"])
+    parts = []
+    for env_id in labels.env_order(rows["env_id"].unique()):
+        at_env = rows[rows["env_id"] == env_id]
+        budgets = sorted(at_env["budget"].unique())
+        body = []
+        for n_demos in sorted(at_env["n_demos"].unique()):
+            for name in names.order(at_env.loc[at_env["n_demos"] == n_demos, "algorithm"]):
+                line = [str(n_demos), names.label(name)]
+                for budget in budgets:
+                    if (env_id, n_demos, name, budget) not in cells.index:
+                        line += ["", ""]
+                        continue
+                    r = cells.loc[(env_id, n_demos, name, budget)]
+                    line.append(f"{interval(r['iqm'], r['lo'], r['hi'])} ({int(r['seeds'])})")
+                    line.append(
+                        ""
+                        if pd.isna(r["of_oracle"])
+                        else f"{interval(r['of_oracle'], r['of_oracle_lo'], r['of_oracle_hi'])}"
+                        f" ({r['worst_of_oracle']:.2f})"
+                    )
+                body.append(line)
+        heads = [h for b in budgets for h in (steps(b), f"{steps(b)}: of oracle (worst)")]
+        shown = table(pd.DataFrame(body, columns=["demos", "Learner", *heads]), right=heads)
+        parts.append(f"### {labels.env_label(env_id)}\n\n{shown}")
+    return "\n\n".join(parts)

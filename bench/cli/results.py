@@ -1,4 +1,4 @@
-"""`bench plot`, `bench report` and `bench compare`: what the records say."""
+"""`bench plot`, `bench report`, `bench compare` and `bench budgets`: what the records say."""
 
 from __future__ import annotations
 
@@ -93,6 +93,43 @@ def _compare(args: argparse.Namespace) -> int:
     return 0
 
 
+def _budgets(args: argparse.Namespace) -> int:
+    from bench import atomic
+    from bench.analysis import budgets, labels, plot, tables
+    from bench.analysis.markdown import demos_title
+    from bench.errors import BadInput
+    from bench.harness import frames, store
+
+    folders = [(folder, _one_suite(folder)) for folder in args.folders]
+    curves_of = [frames.load_curves(store.suite_dirs(folder)[0]) for folder in args.folders]
+    trials, curves = budgets.side_by_side(folders, curves_of)
+    if args.demos:
+        trials = trials[trials["n_demos"].isin(args.demos)]
+        curves = curves[curves["n_demos"].isin(args.demos)]
+        if trials.empty:
+            raise BadInput(f"budgets: no learner ran with {args.demos} demonstrations")
+    rows = budgets.statistics(trials, args.reps)
+    names = labels.Names.of(trials)
+    shown = tables.budgets_table(rows, names)
+    out = args.out or store.suite_dirs(args.folders[-1])[0] / "budgets"
+    out.mkdir(parents=True, exist_ok=True)
+    figures = []
+    if not curves.empty:
+        iqm = budgets.curve_statistics(curves, args.reps)
+        for n in sorted(iqm["n_demos"].unique()):
+            at = iqm[iqm["n_demos"] == n]
+            title = f"Each budget's curves: {demos_title(n).lower()}"
+            name = f"budgets_{n}demos"
+            plot.save(plot.draw_budget_curves(at, title, names), out / name)
+            figures.append(f"![{title}]({name}.png)")
+    atomic.write_text(out / "budgets.csv", rows.to_csv(index=False))
+    sources = ", ".join(f"`{folder}`" for folder in args.folders)
+    text = "\n\n".join([f"# The same cells at each budget\n\nFrom {sources}.", shown, *figures])
+    atomic.write_text(out / "budgets.md", text + "\n")
+    print(f"{shown}\nwrote {out / 'budgets.md'} (budgets.csv and the figures beside it)")
+    return 0
+
+
 def _algorithm_named(name: str, trials: pd.DataFrame, folder: str | Path) -> str:
     """The algorithm `name` stands for in `trials` (its name as the records show it, or its
     label), or BadInput naming the ones there."""
@@ -123,7 +160,7 @@ def _one_suite(folder: str) -> pd.DataFrame:
 
 
 def add(sub: argparse._SubParsersAction) -> None:
-    """The `plot`, `report` and `compare` commands."""
+    """The `plot`, `report`, `compare` and `budgets` commands."""
     plot = sub.add_parser(
         "plot",
         help="draw Figure 2, write summary.csv and print a table for each suite's results",
@@ -190,6 +227,32 @@ def add(sub: argparse._SubParsersAction) -> None:
     )
     _reps(cmp)
     cmp.set_defaults(func=_compare)
+
+    bud = sub.add_parser(
+        "budgets",
+        help="the same cells at several budgets, one folder per budget: IQMs, fractions of"
+        " the oracle and each budget's learning curves side by side",
+        description="Per env, demonstration count and learner that several folders hold at"
+        " different budgets (e.g. results/mujoco at 1-2M and results/mujoco-converged at 5-10M):"
+        " each budget's IQM over seeds with a 95% CI, its fraction of the oracle at that budget"
+        " and the worst seed's, and the learning curves of every budget in one figure.",
+    )
+    bud.add_argument("folders", nargs="+", help="suite results folders, one per budget")
+    bud.add_argument(
+        "--demos",
+        type=at_least(1),
+        action="append",
+        metavar="N",
+        help="only the cells of N demonstrations (repeat for several; default every count)",
+    )
+    bud.add_argument(
+        "--out",
+        metavar="DIR",
+        type=output_folder,
+        help="where budgets.md, budgets.csv and the figures go (default <last folder>/budgets)",
+    )
+    _reps(bud)
+    bud.set_defaults(func=_budgets)
 
 
 def _reps(parser: argparse.ArgumentParser) -> None:
