@@ -202,6 +202,10 @@ def draw_budget_curves(frame: pd.DataFrame, title: str, names: Names) -> Figure:
             ax.set_title(env_label(env_id))
             ax.set_xlim(left=0)
             ax.xaxis.set_major_formatter(EngFormatter(sep=""))
+        # the panels share one y scale, fixed by the first panel's reference lines: widen it to
+        # every panel's curves (a long run's oracle may end well above the expert)
+        lo, hi = axes[0].get_ylim()
+        axes[0].set_ylim(min(lo, frame["lo"].min() - 0.05), max(hi, frame["hi"].max() + 0.05))
         fig.supxlabel("Environment steps", fontsize="medium")
         fig.supylabel("Normalized return (IQM)", fontsize="medium")
         handles = [Line2D([], [], color=colors[a], label=names.label(a)) for a in algos]
