@@ -40,6 +40,11 @@ class SharedTrunkTRPO(TRPO):
     def value_net(self, obs_shape: ObsShape) -> ValueNet:
         return ValueNet(self.policy.norm, obs_shape, self.cfg.hidden, self.policy.trunk)
 
+    def value_optimizer(self) -> torch.optim.Optimizer:
+        """torch's Adam: the trunk it trains is the policy's, and `hold_trunk` moves it by
+        reassigning its parameters, which would cut them from a flat buffer."""
+        return torch.optim.Adam(self.value.net.parameters(), lr=self.cfg.vf_lr)
+
     def state_values(self, obs: torch.Tensor, features: torch.Tensor) -> torch.Tensor:
         return self.value.head(features)  # one trunk pass serves both heads
 

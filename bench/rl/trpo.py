@@ -18,6 +18,7 @@ import gymnasium as gym
 import numpy as np
 import torch
 
+from bench.rl.flat_adam import FlatAdam
 from bench.rl.networks import ConvTrunk, GaussianPolicy, ObsShape, RunningNorm, ValueNet
 from bench.rl.resume import TORCH_RNG, Resumable, Snapshots
 from bench.rl.rollout import Batch, RewardFn, Rewards, VecCollector
@@ -221,7 +222,7 @@ class TRPO:
         self.cfg = cfg
         self.policy = GaussianPolicy(obs_shape, act_dim, cfg.hidden, cfg.init_log_std)
         self.value = self.value_net(obs_shape)
-        self.vf_opt = torch.optim.Adam(self.value.net.parameters(), lr=cfg.vf_lr)
+        self.vf_opt = self.value_optimizer()
         self.gen = torch.Generator().manual_seed(seed + 1)
         self.return_norm = RunningNorm(1)
         self.discounted: np.ndarray | None = None  # running discounted return per env
@@ -230,6 +231,11 @@ class TRPO:
         if isinstance(self.policy.trunk, ConvTrunk):
             raise ValueError("from frames, build the learner with shared_trunk.make_trpo")
         return ValueNet(self.policy.norm, obs_shape, self.cfg.hidden)
+
+    def value_optimizer(self) -> torch.optim.Optimizer:
+        """Adam on the value MLP, over one flat buffer (`FlatAdam`: the same values, a fraction
+        of the dispatch)."""
+        return FlatAdam(self.value.net.parameters(), lr=self.cfg.vf_lr)
 
     def state_dict(self) -> dict:
         """Everything `update` carries from one batch to the next (tensors and plain numbers
@@ -324,8 +330,10 @@ class TRPO:
     def fit_value(
         self, obs: torch.Tensor, features: torch.Tensor, targets: torch.Tensor
     ) -> dict[str, float]:
-        """Regress V(obs) on `targets`, after the policy step."""
-        loss_of = lambda idx: (self.value(obs[idx]) - targets[idx]).square().mean()  # noqa: E731
+        """Regress V(obs) on `targets`, after the policy step. `features` are `obs` normalized,
+        as the value reads them (the statistics stand still until the next batch): normalized
+        once for the batch, not per minibatch, the same numbers."""
+        loss_of = lambda idx: (self.value.head(features[idx]) - targets[idx]).square().mean()  # noqa: E731
         return {"vf_loss": value_step(self.vf_opt, len(obs), loss_of, self.cfg, self.gen)}
 
 
