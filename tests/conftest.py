@@ -184,16 +184,3 @@ def _install_plugin(root, name: str, entry_points: str, modules: dict[str, str])
     for module, code in modules.items():
         (root / f"{module}.py").write_text(code)
     return {**os.environ, "PYTHONPATH": str(root)}
-
-
-def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
-    """Modules with the most slow tests first, each module's tests together and in order: with
-    two xdist workers the long tests start early and the short ones fill the end, instead of a
-    long test starting last while the other worker idles (module fixtures still set up once)."""
-    slow: dict[str, int] = {}
-    for item in items:
-        slow[item.module.__name__] = slow.get(item.module.__name__, 0) + bool(
-            item.get_closest_marker("slow")
-        )
-    first_seen = {name: i for i, name in enumerate(dict.fromkeys(i.module.__name__ for i in items))}
-    items.sort(key=lambda i: (-slow[i.module.__name__], first_seen[i.module.__name__]))

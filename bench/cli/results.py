@@ -228,6 +228,11 @@ def add(sub: argparse._SubParsersAction) -> None:
     _reps(cmp)
     cmp.set_defaults(func=_compare)
 
+    _add_budgets(sub)
+
+
+def _add_budgets(sub: argparse._SubParsersAction) -> None:
+    """The `budgets` command."""
     bud = sub.add_parser(
         "budgets",
         help="the same cells at several budgets, one folder per budget: IQMs, fractions of"
