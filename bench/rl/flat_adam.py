@@ -104,3 +104,13 @@ class FlatAdam(torch.optim.Adam):
             raise ValueError(f"FlatAdam's parameters step together, not at {sorted(steps)}")
         self.steps = steps.pop()
         self.state.clear()
+
+
+def adam(params: Iterable[torch.nn.Parameter], lr: float) -> torch.optim.Optimizer:
+    """Adam for a small network's parameters: `FlatAdam` where they are float32 on the CPU,
+    else (a GPU's) torch's foreach Adam, one batched kernel per operation. Both compute torch's
+    single-tensor arithmetic, so the numbers are the same whichever runs."""
+    params = list(params)
+    if all(p.device.type == "cpu" and p.dtype == torch.float32 for p in params):
+        return FlatAdam(params, lr=lr)
+    return torch.optim.Adam(params, lr=lr, foreach=True)

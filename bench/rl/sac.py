@@ -30,6 +30,7 @@ import torch
 import torch.nn.functional as F
 from torch import nn
 
+from bench.rl import flat_adam
 from bench.rl.networks import mlp
 from bench.rl.replay import ReplayBatch, ReplayBuffer, flagged, transitions_of_step
 from bench.rl.resume import TORCH_RNG, Resumable, Snapshots, Stateful
@@ -191,10 +192,10 @@ class SAC(Stateful):
         self.target.load_state_dict(self.critic.state_dict())
         self.log_alpha = torch.zeros(1, device=self.device, requires_grad=True)
         self.target_entropy = -float(act_dim)
-        # foreach: one batched kernel per Adam step instead of a loop over tensors; the same
-        # numbers to the bit (checked with torch 2.13), ~5% less time per update on a CPU.
-        self.actor_opt = torch.optim.Adam(self.actor.parameters(), lr=cfg.lr, foreach=True)
-        self.critic_opt = torch.optim.Adam(self.critic.parameters(), lr=cfg.lr, foreach=True)
+        # over flat buffers (on a GPU foreach): a few kernels per Adam step instead of a loop
+        # over tensors, the same numbers to the bit; 20-25% less time per update at 64 x 64
+        self.actor_opt = flat_adam.adam(self.actor.parameters(), lr=cfg.lr)
+        self.critic_opt = flat_adam.adam(self.critic.parameters(), lr=cfg.lr)
         self.alpha_opt = torch.optim.Adam([self.log_alpha], lr=cfg.lr)
         # Listed once: walking a module's tree for its parameters costs more than the
         # operations on them at these network sizes.

@@ -15,7 +15,7 @@ from typing import Any
 
 import torch
 
-from bench.rl import replay, sac
+from bench.rl import flat_adam, replay, sac
 from bench.rl.resume import Stateful
 from bench.validate import at_least
 
@@ -50,8 +50,8 @@ class TD3(Stateful):
         self.critic = sac.TwinQ(obs_dim, act_dim, cfg.hidden).to(self.device)
         self.actor_target = copy.deepcopy(self.actor)
         self.critic_target = copy.deepcopy(self.critic)
-        self.actor_opt = torch.optim.Adam(self.actor.parameters(), lr=cfg.lr, foreach=True)
-        self.critic_opt = torch.optim.Adam(self.critic.parameters(), lr=cfg.lr, foreach=True)
+        self.actor_opt = flat_adam.adam(self.actor.parameters(), lr=cfg.lr)
+        self.critic_opt = flat_adam.adam(self.critic.parameters(), lr=cfg.lr)
         self.buffer = replay.ReplayBuffer(obs_dim, act_dim, cfg.buffer_size, seed)
         self.critic_params = list(self.critic.parameters())
         self.targets = [*self.actor_target.parameters(), *self.critic_target.parameters()]
