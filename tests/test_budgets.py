@@ -39,12 +39,11 @@ def test_each_cell_stands_beside_its_longer_run(two_budgets, bench_here, tmp_pat
 
     trials = frames.load(short)
     random, expert = (trials[trials.algorithm == a]["return"].mean() for a in ("random", "expert"))
-    normalized = lambda a, n: (
-        (  # noqa: E731
-            trials[(trials.algorithm == a) & (trials.n_demos == n)]["return"] - random
-        )
-        / (expert - random)
-    )
+
+    def normalized(algorithm: str, n_demos: int) -> pd.Series:
+        rows = trials[(trials.algorithm == algorithm) & (trials.n_demos == n_demos)]
+        return (rows["return"] - random) / (expert - random)
+
     gaifo = rows[(rows.algorithm == "gaifo") & (rows.n_demos == 5)].iloc[0]
     assert gaifo["budget"] == 2_000_000 and gaifo["seeds"] == 10
     assert gaifo["iqm"] == pytest.approx(bootstrap.iqm(normalized("gaifo", 5).to_numpy()))
