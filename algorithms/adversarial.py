@@ -39,7 +39,7 @@ from bench.imitation.discriminator import (
     logistic,
 )
 from bench.imitation.rewards import batch_rewards, batch_transitions
-from bench.rl import absorbing
+from bench.rl import absorbing, flat_adam
 from bench.rl.absorbing import Transitions
 from bench.rl.networks import (
     DeterministicPolicy,
@@ -150,7 +150,7 @@ class DiscriminatorReward(Stateful):
         what D minimizes (`bench.imitation.discriminator.logistic` or `wasserstein`)."""
         self.disc, self.expert, self.task, self.cfg = disc, expert, task, cfg
         self.objective = objective
-        self.opt = torch.optim.Adam(disc.parameters(), lr=cfg.disc_lr)
+        self.opt = flat_adam.adam(disc.parameters(), lr=cfg.disc_lr)
         self.gen = torch.Generator().manual_seed(seed + 2)
         self.reward = REWARDS[cfg.reward]
         seen_dim = int(np.prod(task.judged_shape))

@@ -34,6 +34,7 @@ from bench.imitation.inverse_dynamics import (
     fit_inverse,
     inverse_error,
 )
+from bench.rl import flat_adam
 from bench.rl.networks import DeterministicPolicy, GaussianPolicy
 from bench.rl.resume import TORCH_RNG, Resumable
 from bench.rl.rollout import VecCollector
@@ -100,7 +101,7 @@ def clone(
     policy = GaussianPolicy(task.obs_dim, task.act_dim, cfg.policy_hidden, cfg.init_log_std)
     if cfg.input_norm == "demos":
         policy.norm.update(s.numpy())  # its inputs are demonstration states
-    opt = torch.optim.Adam(
+    opt = flat_adam.adam(
         [p for n, p in policy.named_parameters() if not n.startswith("norm.")], lr=cfg.bc_lr
     )
     loss = torch.zeros(())
@@ -205,7 +206,7 @@ def train(
     low, high = task.action_low, task.action_high
     demo_pairs = tuple(torch.from_numpy(x) for x in demos.transitions())
     model = InverseModel(task.obs_dim, task.act_dim, cfg.inverse_hidden)
-    model_opt = torch.optim.Adam(model.net.parameters(), lr=cfg.inverse_lr)
+    model_opt = flat_adam.adam(model.net.parameters(), lr=cfg.inverse_lr)
     data = AgentData(model, cfg.val_fraction, rng)
     chunk = round(cfg.alpha * cfg.pre_demo_steps)
     rollouts = VecCollector(

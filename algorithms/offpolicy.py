@@ -32,7 +32,7 @@ from bench.imitation.discriminator import (
     discriminator_step,
 )
 from bench.imitation.rewards import replay_transitions
-from bench.rl import resume, sac
+from bench.rl import flat_adam, resume, sac
 from bench.rl.networks import RunningNorm
 from bench.rl.replay import ReplayBatch, transitions_of_step
 
@@ -87,7 +87,7 @@ class CurrentDReward(resume.Stateful):
         seed: int,
     ) -> None:
         self.disc, self.expert, self.cfg = disc, expert, cfg
-        self.opt = torch.optim.Adam(disc.net.parameters(), lr=cfg.disc_lr, foreach=True)
+        self.opt = flat_adam.adam(disc.net.parameters(), lr=cfg.disc_lr)
         self.gen = torch.Generator().manual_seed(seed + 2)
         self.reward = REWARDS[cfg.reward]
 

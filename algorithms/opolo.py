@@ -42,7 +42,7 @@ from bench.imitation.discriminator import (
     discriminator_log,
     discriminator_step,
 )
-from bench.rl import sac
+from bench.rl import flat_adam, sac
 from bench.rl.networks import RunningNorm, mlp
 from bench.rl.replay import ReplayBatch
 from bench.rl.td3 import TD3, TD3Config
@@ -129,7 +129,7 @@ class OPOLO(TD3):
         norm = RunningNorm.of(np.concatenate(demos.observations))
         self.disc = StateTransitionD(norm, obs_dim, cfg.disc_hidden).to(self.device)
         self.inverse = InverseModel(norm, obs_dim, act_dim, cfg.disc_hidden).to(self.device)
-        self.disc_opt = torch.optim.Adam(self.disc.net.parameters(), lr=cfg.disc_lr)
+        self.disc_opt = flat_adam.adam(self.disc.net.parameters(), lr=cfg.disc_lr)
         self.inverse_opt = torch.optim.Adam(
             self.inverse.net.parameters(), lr=cfg.disc_lr, weight_decay=cfg.inverse_l2
         )

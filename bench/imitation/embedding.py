@@ -13,6 +13,7 @@ import torch.nn.functional as F
 from torch import nn
 
 from bench.imitation.data import Demos
+from bench.rl import flat_adam
 from bench.rl.networks import ObsShape, body, normalizer
 from bench.validate import Checked, above, at_least, layers
 
@@ -99,7 +100,7 @@ def train_embedding(
         raise ValueError(f"no demonstration is longer than neg_margin ({cfg.neg_margin} steps)")
     offsets = np.concatenate([[0], np.cumsum(lengths)[:-1]])
     states = torch.from_numpy(np.concatenate(demos.observations))
-    opt = torch.optim.Adam(embed.net.parameters(), lr=cfg.embed_lr)
+    opt = flat_adam.adam(embed.net.parameters(), lr=cfg.embed_lr)
     rng = np.random.default_rng(seed)
     loss, active = torch.zeros(()), torch.zeros(())
     for _ in range(cfg.embed_steps):
