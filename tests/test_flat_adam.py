@@ -72,3 +72,17 @@ def test_it_refuses_what_it_cannot_flatten():
     net = mlp([3, 4, 1]).double()
     with pytest.raises(ValueError, match="float32"):
         FlatAdam(net.parameters(), lr=1e-3)
+
+
+def test_gradients_cleared_by_the_module_still_reach_the_step():
+    ours, theirs = _pair()
+    flat = FlatAdam(ours.parameters(), lr=1e-3)
+    adam = torch.optim.Adam(theirs.parameters(), lr=1e-3)
+    x = torch.randn(32, 11, generator=torch.Generator().manual_seed(4))
+    for net, opt in ((ours, flat), (theirs, adam)):
+        for _ in range(3):
+            net.zero_grad()  # the module's, not the optimizer's: gradients set to None
+            net(x).square().mean().backward()
+            opt.step()
+    for a, b in zip(ours.parameters(), theirs.parameters(), strict=True):
+        assert torch.equal(a, b)

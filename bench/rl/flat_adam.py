@@ -56,10 +56,22 @@ class FlatAdam(torch.optim.Adam):
             if p.grad is not grad:
                 p.grad = grad
 
+    def gather_grads(self) -> None:
+        """Bring into the buffer any gradient that lives elsewhere (a module's own zero_grad
+        set it to None, and backward made a new one); a missing one counts as 0."""
+        for p, grad in zip(self.params, self.grads, strict=True):
+            if p.grad is not grad:
+                if p.grad is None:
+                    grad.zero_()
+                else:
+                    grad.copy_(p.grad)
+                p.grad = grad
+
     @torch.no_grad()
     def step(self, closure: None = None) -> None:
         """`torch.optim.adam._single_tensor_adam` without weight decay, amsgrad or maximize,
         on all parameters at once (padding stays 0: its gradient and moments are 0)."""
+        self.gather_grads()
         group = self.param_groups[0]
         (beta1, beta2), lr, eps = group["betas"], group["lr"], group["eps"]
         self.steps += 1
