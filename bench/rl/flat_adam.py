@@ -28,8 +28,8 @@ class FlatAdam(torch.optim.Adam):
     def __init__(self, params: Iterable[torch.nn.Parameter], lr: float) -> None:
         super().__init__(params, lr=lr)
         self.params = [p for group in self.param_groups for p in group["params"]]
-        if len(self.param_groups) > 1 or any(p.dtype != torch.float32 for p in self.params):
-            raise ValueError("FlatAdam takes one group of float32 parameters")
+        if len(self.param_groups) > 1 or any(not _flattens(p) for p in self.params):
+            raise ValueError("FlatAdam takes one group of float32 parameters on the CPU")
         self.offsets, size = [], 0
         for p in self.params:
             self.offsets.append(size)
@@ -123,6 +123,11 @@ def adam(params: Iterable[torch.nn.Parameter], lr: float) -> torch.optim.Optimiz
     else (a GPU's) torch's foreach Adam, one batched kernel per operation. Both compute torch's
     single-tensor arithmetic, so the numbers are the same whichever runs."""
     params = list(params)
-    if all(p.device.type == "cpu" and p.dtype == torch.float32 for p in params):
+    if all(_flattens(p) for p in params):
         return FlatAdam(params, lr=lr)
     return torch.optim.Adam(params, lr=lr, foreach=True)
+
+
+def _flattens(p: torch.Tensor) -> bool:
+    """Whether `p` can live in FlatAdam's buffers (float32, on the CPU)."""
+    return p.device.type == "cpu" and p.dtype == torch.float32
