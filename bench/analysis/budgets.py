@@ -6,7 +6,7 @@ folder's random and expert, and set beside each other per env, learner and demon
 count: the IQM over seeds with its 95% CI, and, where the folder ran the learner's oracle at
 that budget, the IQM as a fraction of the oracle's (with its CI) and the worst seed's
 fraction (`comparisons.oracle_fractions`, as a report reads them). Their table is
-`tables.budgets_table`, their figure `plot.draw_budget_curves`. Pure functions over tidy
+`tables.budgets_table`, their figure `plot.draw_iqm_curves`. Pure functions over tidy
 frames; nothing here reads or writes files.
 """
 
@@ -78,9 +78,8 @@ def side_by_side(
     joined = joined[joined["status"] == "ok"].merge(cells)
     if curves_of is None:
         return joined, pd.DataFrame()
-    cells = joined[["env_id", "n_demos", "budget"]].drop_duplicates()
     curve_frame = pd.concat([_at_counts(c, counts) for c in curve_frames], ignore_index=True)
-    return joined, curve_frame.merge(cells)
+    return joined, curve_frame.merge(joined[["env_id", "n_demos", "budget"]].drop_duplicates())
 
 
 def _at_counts(df: pd.DataFrame, counts: list[int]) -> pd.DataFrame:
@@ -125,7 +124,7 @@ def statistics(df: pd.DataFrame, reps: int = 2000) -> pd.DataFrame:
 
 def curve_statistics(curve_frame: pd.DataFrame, reps: int = 2000) -> pd.DataFrame:
     """`curves.iqm_curves` of `side_by_side`'s curves, budget by budget, with a `budget`
-    column (what `plot.draw_budget_curves` draws)."""
+    column (what `plot.draw_iqm_curves` draws, budget by budget)."""
     return pd.concat(
         [
             curves.iqm_curves(rows, reps=reps).assign(budget=budget)

@@ -151,68 +151,51 @@ def figure2(df: pd.DataFrame, out: str | Path) -> list[Path]:
 
 def draw_iqm_curves(frame: pd.DataFrame, title: str, names: Names) -> Figure:
     """Per env, IQM normalized return against env steps, band the 95% CI (from `curves.iqm_curves`).
-    Legend labels from `names` (a * for those given expert actions)."""
+    Legend labels from `names` (a * for those given expert actions).
+
+    With a `budget` column (`bench budgets`: the same cells at several budgets), every budget's
+    curves are drawn, the shorter ones dashed and ended by a dotted line, so a short run's end
+    is seen on the way of the longest."""
+    budgets = frame["budget"] if "budget" in frame else pd.Series(0, index=frame.index)
     envs = env_order(frame["env_id"].unique())
     algos = algorithm_order(frame["algorithm"].unique())
     colors = algorithm_colors(algos)
     with sns.axes_style("whitegrid"), sns.plotting_context("paper"):
         fig, axes = _panels(len(envs), width=2.35, height=1.9)
         for ax, env_id in zip(axes, envs, strict=False):
-            for a in algos:
-                rows = frame[(frame["env_id"] == env_id) & (frame["algorithm"] == a)]
-                rows = rows.sort_values("env_steps")
-                ax.plot(rows["env_steps"], rows["iqm"], color=colors[a], lw=1.3)
-                ax.fill_between(
-                    rows["env_steps"], rows["lo"], rows["hi"], color=colors[a], alpha=0.2, lw=0
-                )
-            _reference_lines(ax)
-            ax.set_title(env_label(env_id))
-            ax.set_xlim(left=0)
-            ax.xaxis.set_major_formatter(EngFormatter(sep=""))  # 200k, 1M: no offset text
-        fig.supxlabel("Environment steps", fontsize="medium")
-        fig.supylabel("Normalized return (IQM)", fontsize="medium")
-        handles = [Line2D([], [], color=colors[a], label=names.label(a)) for a in algos]
-        _legend_and_titles(fig, handles, title, names.starred(algos))
-    return fig
-
-
-def draw_budget_curves(frame: pd.DataFrame, title: str, names: Names) -> Figure:
-    """Per env, each learner's IQM learning curve at every budget (`curves.iqm_curves` rows
-    plus a `budget` column), band the 95% CI; the shorter budgets dashed and ended by a dotted
-    line, so a short run's end is seen on the way of the longest."""
-    envs = env_order(frame["env_id"].unique())
-    algos = names.order(frame["algorithm"].unique())
-    colors = algorithm_colors(algos)
-    with sns.axes_style("whitegrid"), sns.plotting_context("paper"):
-        fig, axes = _panels(len(envs), width=2.6, height=2.0)
-        for ax, env_id in zip(axes, envs, strict=False):
-            at_env = frame[frame["env_id"] == env_id]
-            longest = at_env["budget"].max()
-            for (budget, a), rows in at_env.groupby(["budget", "algorithm"]):
-                rows = rows.sort_values("env_steps")
-                style = {"ls": "--", "lw": 1.0} if budget < longest else {"ls": "-", "lw": 1.4}
-                ax.plot(rows["env_steps"], rows["iqm"], color=colors[a], **style)
-                ax.fill_between(
-                    rows["env_steps"], rows["lo"], rows["hi"], color=colors[a], alpha=0.15, lw=0
-                )
-            for budget in at_env["budget"].unique():
+            here = frame["env_id"] == env_id
+            longest = budgets[here].max()
+            for budget in sorted(budgets[here].unique()):
+                style = {"ls": "--", "lw": 1.0} if budget < longest else {"lw": 1.3}
+                for a in algos:
+                    rows = frame[here & (budgets == budget) & (frame["algorithm"] == a)]
+                    rows = rows.sort_values("env_steps")
+                    ax.plot(rows["env_steps"], rows["iqm"], color=colors[a], **style)
+                    ax.fill_between(
+                        rows["env_steps"], rows["lo"], rows["hi"], color=colors[a], alpha=0.2, lw=0
+                    )
                 if budget < longest:
                     ax.axvline(budget, color="0.5", lw=0.8, ls=":")
             _reference_lines(ax)
             ax.set_title(env_label(env_id))
             ax.set_xlim(left=0)
-            ax.xaxis.set_major_formatter(EngFormatter(sep=""))
-        # the panels share one y scale, fixed by the first panel's reference lines: widen it to
-        # every panel's curves (a long run's oracle may end well above the expert)
+            ax.xaxis.set_major_formatter(EngFormatter(sep=""))  # 200k, 1M: no offset text
+        # The panels share one y scale, fixed by the first panel's reference lines: widen it
+        # where a later panel's curves leave it (a long run's oracle may end well above 1).
         lo, hi = axes[0].get_ylim()
-        axes[0].set_ylim(min(lo, frame["lo"].min() - 0.05), max(hi, frame["hi"].max() + 0.05))
+        bottom, top = frame["lo"].min(), frame["hi"].max()
+        if bottom < lo or top > hi:
+            axes[0].set_ylim(min(lo, bottom - 0.05), max(hi, top + 0.05))
         fig.supxlabel("Environment steps", fontsize="medium")
         fig.supylabel("Normalized return (IQM)", fontsize="medium")
         handles = [Line2D([], [], color=colors[a], label=names.label(a)) for a in algos]
-        handles += [
-            Line2D([], [], color="0.3", lw=1.4, label="longest budget"),
-            Line2D([], [], color="0.3", ls="--", lw=1.0, label="a shorter one, to the dotted line"),
-        ]
+        if budgets.nunique() > 1:
+            handles += [
+                Line2D([], [], color="0.3", lw=1.3, label="longest budget"),
+                Line2D(
+                    [], [], color="0.3", ls="--", lw=1.0, label="a shorter one, to the dotted line"
+                ),
+            ]
         _legend_and_titles(fig, handles, title, names.starred(algos))
     return fig
 

@@ -120,7 +120,7 @@ def _budgets(args: argparse.Namespace) -> int:
             at = iqm[iqm["n_demos"] == n]
             title = f"Each budget's curves: {demos_title(n).lower()}"
             name = f"budgets_{n}demos"
-            plot.save(plot.draw_budget_curves(at, title, names), out / name)
+            plot.save(plot.draw_iqm_curves(at, title, names), out / name)
             figures.append(f"![{title}]({name}.png)")
     atomic.write_text(out / "budgets.csv", rows.to_csv(index=False))
     sources = ", ".join(f"`{folder}`" for folder in args.folders)
