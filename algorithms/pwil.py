@@ -24,7 +24,6 @@ from typing import Any
 
 import numpy as np
 import torch
-from scipy.spatial.distance import cdist
 
 from bench.harness.learners import ImitationTRPOConfig, one_batch, trpo_on_reward
 from bench.harness.registry import Logger, Policy, Task, register
@@ -83,6 +82,8 @@ class PWILReward(Stateful):
         return {"left": self.left}
 
     def __call__(self, batch: Batch) -> Rewards:
+        from scipy.spatial.distance import cdist  # here: every trial's worker imports plugins
+
         states = (batch.flat("next_obs").astype(np.float64) - self.mean) / self.scale
         # Where each state lies from each atom does not depend on what was spent: all at once.
         distances = cdist(states, self.atoms).reshape(*batch.rewards.shape, len(self.atoms))

@@ -86,3 +86,24 @@ def test_gradients_cleared_by_the_module_still_reach_the_step():
             opt.step()
     for a, b in zip(ours.parameters(), theirs.parameters(), strict=True):
         assert torch.equal(a, b)
+
+
+def test_a_fresh_process_makes_steps_and_saves_optimizers_without_importing_dynamo():
+    """torch imports torch._dynamo (over a second) on an optimizer's first bookkeeping call;
+    every trial's worker would pay it. Adam's arithmetic is untouched: the tests above."""
+    import subprocess
+    import sys
+
+    script = """
+import sys, torch
+from bench.rl.flat_adam import adam
+net = torch.nn.Linear(3, 2)
+opt = adam(net.parameters(), lr=1e-3)
+net(torch.ones(3)).sum().backward()
+opt.step()
+opt.load_state_dict(opt.state_dict())
+torch.optim.Adam(net.parameters()).zero_grad()
+assert "torch._dynamo" not in sys.modules, "imported"
+"""
+    out = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True)
+    assert out.returncode == 0, out.stderr

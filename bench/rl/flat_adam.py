@@ -13,6 +13,25 @@ A matrix product may round differently with its operand at another alignment, so
 parameter keeps the alignment it had."""
 
 
+def _skip_dynamo_import() -> None:
+    """Keep `torch.optim.Optimizer`'s bookkeeping from importing torch._dynamo.
+
+    torch wraps `add_param_group` (so every optimizer's construction), `state_dict`,
+    `load_state_dict` and `zero_grad` in `torch._disable_dynamo`, which imports torch._dynamo
+    on their first call (1.3 s: a third of a trial worker's start, paid again by every fresh
+    process) to keep them out of torch.compile's graphs, then caches the excluded function on
+    the original. Nothing here is compiled, so the original is cached as its own exclusion:
+    the same function runs, without the import. Where torch's layout differs, nothing changes.
+    (torch's own `Adam.step` still imports it; FlatAdam's does not.)"""
+    for name in ("add_param_group", "state_dict", "load_state_dict", "zero_grad"):
+        original = getattr(getattr(torch.optim.Optimizer, name), "__wrapped__", None)
+        if original is not None and not hasattr(original, "__dynamo_disable"):
+            setattr(original, "__dynamo_disable", original)
+
+
+_skip_dynamo_import()
+
+
 class FlatAdam(torch.optim.Adam):
     """`torch.optim.Adam` at its defaults but the learning rate (its single-tensor path, the one
     a CPU takes), for a small network whose every parameter takes part in every step.
