@@ -13,8 +13,8 @@ is 16 quick-suite trials of ~7 s each, about 3 minutes per repeat.
 Efficiency is (trials/h with N jobs) / (N x trials/h with 1 job). It splits
 into two factors, printed for each repeat:
 - busy: the share of the N cores' time spent inside trials. The rest is
-  worker start-up (~4 s per worker: starting Python and importing torch and
-  PyBullet, then torch.optim's first step importing torch._dynamo) and the
+  worker start-up (~1.5 s per worker: starting Python and importing torch and
+  PyBullet) and the
   tail, when the last trial runs alone.
 - slowdown: the trials' summed wall time with N jobs over that with 1 job:
   trials running side by side on shared hardware (and, on a VM, neighbours).
