@@ -363,14 +363,20 @@ def test_an_ok_record_without_a_finite_return_is_reported(finished_results, tmp_
 
 
 @pytest.mark.slow
-def test_an_unreachable_dask_scheduler_is_one_line(tmp_path, bench_here):
+def test_an_unreachable_dask_scheduler_is_one_line_before_anything_is_touched(
+    finished_results, bench_here
+):
+    """Refused before the run links what the folder beside it finished (seed 0 here)."""
     pytest.importorskip("distributed")
-    suite = tmp_path / "s.yaml"
-    suite.write_text(GOOD)
+    root = finished_results.parent
+    suite = root / "more.yaml"
+    suite.write_text("name: good\n" + GOOD.replace("seeds: 1", "seeds: 2"))
+    before = snapshot(finished_results)
     args = ["--backend", "dask", "--scheduler", "tcp://127.0.0.1:1"]
-    out = bench_here("run", str(suite), "--results", str(tmp_path / "res"), *args)
+    out = bench_here("run", str(suite), "--results", str(root / "more"), *args)
     assert out.returncode == 2 and "cannot reach the dask scheduler" in out.stderr
-    assert "Traceback" not in out.stderr and not list((tmp_path / "res").rglob("*.json"))
+    assert "Traceback" not in out.stderr and not list((root / "more").rglob("*.json"))
+    assert snapshot(finished_results) == before
 
 
 @pytest.mark.parametrize("command", ["report", "plot"])

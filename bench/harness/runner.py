@@ -20,6 +20,7 @@ from collections.abc import Callable, Collection, Iterator, Sequence
 from contextlib import closing, contextmanager
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import joblib
 from joblib.externals.loky.process_executor import TerminatedWorkerError
@@ -31,6 +32,9 @@ from bench.harness.costs import CostModel, TimeLimit
 from bench.harness.snapshots import SnapshotPlan
 from bench.harness.trial import demo_pool, plan, run_trial_apart
 from bench.harness.types import TrialResult, TrialSpec
+
+if TYPE_CHECKING:
+    from distributed import Client
 
 
 @dataclass(frozen=True)
@@ -161,6 +165,8 @@ def run_suite(
     trial still running `trial_timeout` seconds after it started is stopped and recorded as
     failed. Records of these trials' cells made with other settings or another version of a
     plugin's code are moved aside first (`store.superseded`)."""
+    if backend == "dask" and scheduler is not None:
+        _dask_client(scheduler).close()  # unreachable: refused before anything is touched
     records = list(store.scan(results_dir))
     stale = store.superseded(records, specs)
     if stale:
@@ -242,12 +248,7 @@ def _workers(backend: str, jobs: int, scheduler: str | None) -> Iterator[int]:
     client = None
     try:
         if backend == "dask":
-            from distributed import Client
-
-            try:
-                client = Client(scheduler, timeout="20s") if scheduler else Client(processes=True)
-            except OSError as e:  # no scheduler there, or one that does not answer
-                raise BadInput(f"cannot reach the dask scheduler at {scheduler}: {e}") from None
+            client = _dask_client(scheduler)
             ctx = joblib.parallel_config(backend="dask")
             workers = sum(client.nthreads().values())
         else:
@@ -260,6 +261,18 @@ def _workers(backend: str, jobs: int, scheduler: str | None) -> Iterator[int]:
     finally:
         if client is not None:
             client.close()
+
+
+def _dask_client(scheduler: str | None) -> Client:
+    """A client of the dask scheduler at `scheduler`, or of a local cluster where it is None."""
+    from distributed import Client
+
+    if scheduler is None:
+        return Client(processes=True)
+    try:
+        return Client(scheduler, timeout="20s")
+    except OSError as e:  # no scheduler there, or one that does not answer
+        raise BadInput(f"cannot reach the dask scheduler at {scheduler}: {e}") from None
 
 
 class _Landing:
