@@ -53,9 +53,15 @@ def test_each_cell_stands_beside_its_longer_run(two_budgets, bench_here, tmp_pat
     assert gaifo["worst_of_oracle"] == pytest.approx(normalized("gaifo", 5).min() / ceiling)
     # no learner but the oracle ran at 10M: nothing to read as a fraction of it there
     assert np.isnan(oracle.loc[(5, 10_000_000), "of_oracle"])
+    # P(a GAIfO run beats a survival run): the share of seed pairs it wins, ties half
+    mine, floor = normalized("gaifo", 5).to_numpy(), normalized("survival", 0).to_numpy()
+    wins = (mine[:, None] > floor[None, :]) + 0.5 * (mine[:, None] == floor[None, :])
+    assert gaifo["over_floor"] == pytest.approx(wins.mean())
+    assert gaifo["over_floor_lo"] <= gaifo["over_floor"] <= gaifo["over_floor_hi"]
+    assert oracle[["over_floor"]].isna().all().all()  # a control is not read against the floor
 
     assert "### Walker2d" in out.stdout and "| 5       | GAIfO " in out.stdout
-    assert "10.00M: of oracle (worst)" in out.stdout
+    assert "10.00M: of oracle (worst)" in out.stdout and "2.00M: P(> floor)" in out.stdout
     page = (tmp_path / "budgets.md").read_text()
     assert "budgets_5demos.png" in page and (tmp_path / "budgets_5demos.png").stat().st_size
 

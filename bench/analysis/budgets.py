@@ -5,7 +5,8 @@ at 1-2M, the converged reference's at 5-10M). A learner's scores are normalized 
 folder's random and expert, and set beside each other per env, learner and demonstration
 count: the IQM over seeds with its 95% CI, and, where the folder ran the learner's oracle at
 that budget, the IQM as a fraction of the oracle's (with its CI) and the worst seed's
-fraction (`comparisons.oracle_fractions`, as a report reads them). Their table is
+fraction (`comparisons.oracle_fractions`, as a report reads them), and, where it ran the
+learner's floor, the probability that a run of the learner beats a run of the floor. Their table is
 `tables.budgets_table`, their figure `plot.draw_iqm_curves`. Pure functions over tidy
 frames; nothing here reads or writes files.
 """
@@ -14,6 +15,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 
+import numpy as np
 import pandas as pd
 
 from bench.analysis import comparisons, curves, stats
@@ -34,6 +36,9 @@ COLUMNS = [
     "of_oracle_lo",
     "of_oracle_hi",
     "worst_of_oracle",
+    "over_floor",
+    "over_floor_lo",
+    "over_floor_hi",
 ]
 """One row per env, learner, demonstration count and budget (budgets.csv)."""
 
@@ -92,7 +97,8 @@ def _at_counts(df: pd.DataFrame, counts: list[int]) -> pd.DataFrame:
 
 def statistics(df: pd.DataFrame, reps: int = 2000) -> pd.DataFrame:
     """`COLUMNS` from `side_by_side`'s trials: per env, count and budget, each learner's IQM
-    with a 95% CI and, against its oracle at the same budget, the fraction of it."""
+    with a 95% CI and, against its controls at the same budget, the fraction of its oracle
+    and P(learner > its floor), each with a 95% CI."""
     names = Names.of(df)
     rows = []
     for (env_id, n_demos, budget), cell in df.groupby(["env_id", "n_demos", "budget"]):
@@ -103,23 +109,33 @@ def statistics(df: pd.DataFrame, reps: int = 2000) -> pd.DataFrame:
         iqm = stats.aggregate_scores(scores, reps=reps)
         iqm = iqm[iqm["metric"] == "iqm"].set_index("algorithm")
         fractions = comparisons.oracle_fractions(scores, names, reps).set_index("algorithm")
+        over_floor = stats.improvement_of_pairs(scores, _floor_pairs(scores, names), reps)
+        over_floor = over_floor.set_index("algorithm")
         for name, runs in scores.items():
             at = iqm.loc[name]
-            row = [
-                env_id,
-                name,
-                int(n_demos),
-                int(budget),
-                len(runs),
-                at["estimate"],
-                at["lo"],
-                at["hi"],
-            ]
+            row = {"env_id": env_id, "algorithm": name, "n_demos": int(n_demos)}
+            row |= {"budget": int(budget), "seeds": len(runs)}
+            row |= {"iqm": at["estimate"], "lo": at["lo"], "hi": at["hi"]}
             if name in fractions.index:
                 of = fractions.loc[name]
-                row += [of["estimate"], of["lo"], of["hi"], of["worst"]]
-            rows.append(row + [float("nan")] * (len(COLUMNS) - len(row)))
+                row |= {"of_oracle": of["estimate"], "of_oracle_lo": of["lo"]}
+                row |= {"of_oracle_hi": of["hi"], "worst_of_oracle": of["worst"]}
+            if name in over_floor.index:
+                over = over_floor.loc[name]
+                row |= {"over_floor": over["estimate"], "over_floor_lo": over["lo"]}
+                row |= {"over_floor_hi": over["hi"]}
+            rows.append(row)
     return pd.DataFrame(rows, columns=COLUMNS)
+
+
+def _floor_pairs(scores: dict[str, np.ndarray], names: Names) -> list[tuple[str, str]]:
+    """(learner, its floor) for each learner whose floor ran in the same cell."""
+    pairs = []
+    for name in scores:
+        floor = comparisons.control_of(name, "floor", scores, names)
+        if names[name].role == "learner" and floor is not None:
+            pairs.append((name, floor))
+    return pairs
 
 
 def curve_statistics(curve_frame: pd.DataFrame, reps: int = 2000) -> pd.DataFrame:

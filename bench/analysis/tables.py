@@ -201,8 +201,8 @@ def report_tables(aggregates: pd.DataFrame, improvement: pd.DataFrame, names: Na
 
 def budgets_table(rows: pd.DataFrame, names: Names) -> str:
     """Markdown: `budgets.statistics` rows, a table per env (its own budgets as columns) with a
-    row per demonstration count and learner; per budget, the IQM [CI] (seeds) and the fraction
-    of the oracle at that budget [CI] (worst seed's fraction)."""
+    row per demonstration count and learner; per budget, the IQM [CI] (seeds), the fraction
+    of the oracle at that budget [CI] (worst seed's fraction) and P(learner > its floor) [CI]."""
     cells = rows.set_index(["env_id", "n_demos", "algorithm", "budget"])
     parts = []
     for env_id in labels.env_order(rows["env_id"].unique()):
@@ -214,7 +214,7 @@ def budgets_table(rows: pd.DataFrame, names: Names) -> str:
                 line = [str(n_demos), names.label(name)]
                 for budget in budgets:
                     if (env_id, n_demos, name, budget) not in cells.index:
-                        line += ["", ""]
+                        line += ["", "", ""]
                         continue
                     r = cells.loc[(env_id, n_demos, name, budget)]
                     line.append(f"{interval(r['iqm'], r['lo'], r['hi'])} ({int(r['seeds'])})")
@@ -224,8 +224,17 @@ def budgets_table(rows: pd.DataFrame, names: Names) -> str:
                         else f"{interval(r['of_oracle'], r['of_oracle_lo'], r['of_oracle_hi'])}"
                         f" ({r['worst_of_oracle']:.2f})"
                     )
+                    line.append(
+                        ""
+                        if pd.isna(r["over_floor"])
+                        else interval(r["over_floor"], r["over_floor_lo"], r["over_floor_hi"])
+                    )
                 body.append(line)
-        heads = [h for b in budgets for h in (steps(b), f"{steps(b)}: of oracle (worst)")]
+        heads = [
+            h
+            for b in budgets
+            for h in (steps(b), f"{steps(b)}: of oracle (worst)", f"{steps(b)}: P(> floor)")
+        ]
         shown = table(pd.DataFrame(body, columns=["demos", "Learner", *heads]), right=heads)
         parts.append(f"### {labels.env_label(env_id)}\n\n{shown}")
     return "\n\n".join(parts)

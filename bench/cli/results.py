@@ -240,7 +240,8 @@ def _add_budgets(sub: argparse._SubParsersAction) -> None:
         description="Per env, demonstration count and learner that several folders hold at"
         " different budgets (e.g. results/mujoco at 1-2M and results/mujoco-converged at 5-10M):"
         " each budget's IQM over seeds with a 95% CI, its fraction of the oracle at that budget"
-        " and the worst seed's, and the learning curves of every budget in one figure.",
+        " and the worst seed's, P(one of its runs beats one of its floor's), and the learning"
+        " curves of every budget in one figure.",
     )
     bud.add_argument("folders", nargs="+", help="suite results folders, one per budget")
     bud.add_argument(
