@@ -11,9 +11,11 @@ atomic file per finished trial, as results stream back.
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import itertools
 import os
+import socket
 import sys
 import warnings
 from collections.abc import Callable, Collection, Iterator, Sequence
@@ -270,9 +272,26 @@ def _dask_client(scheduler: str | None) -> Client:
     if scheduler is None:
         return Client(processes=True)
     try:
+        _refused_at_once(scheduler)
         return Client(scheduler, timeout="20s")
     except OSError as e:  # no scheduler there, or one that does not answer
         raise BadInput(f"cannot reach the dask scheduler at {scheduler}: {e}") from None
+
+
+def _refused_at_once(scheduler: str) -> None:
+    """Raise ConnectionRefusedError where nothing listens at a TCP scheduler's address: dask
+    would keep trying for its whole timeout. Anything else (a slow or unknown host, another
+    protocol) is left to dask's own attempts."""
+    from distributed.comm import parse_address, parse_host_port
+
+    try:
+        scheme, location = parse_address(scheduler)
+        host, port = parse_host_port(location)
+    except ValueError:
+        return
+    if scheme == "tcp":
+        with contextlib.suppress(socket.timeout, socket.gaierror):
+            socket.create_connection((host, port), timeout=5).close()
 
 
 class _Landing:
