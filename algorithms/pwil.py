@@ -97,16 +97,23 @@ class PWILReward(Stateful):
         return Rewards(r, logged=logged)
 
 
-def time_limit(task: Task, seed: int) -> int:
-    """The env's time limit, read from an env of the task."""
+def horizon_on(task: Task, seed: int, horizon: int | None) -> int:
+    """T on the task: `horizon`, or the env's time limit where it is None. A horizon shorter
+    than the time limit is refused: an episode's steps past it would find every atom spent,
+    cost nothing and earn PWIL's top reward."""
     env = task.make_env(seed)
     try:
-        steps = env.spec.max_episode_steps if env.spec is not None else None
+        limit = env.spec.max_episode_steps if env.spec is not None else None
     finally:
         env.close()
-    if steps is None:
+    if horizon is None and limit is None:
         raise ValueError(f"{task.env_id} has no time limit: set PWIL's horizon")
-    return int(steps)
+    if horizon is not None and limit is not None and horizon < limit:
+        raise ValueError(
+            f"PWIL's horizon ({horizon}) is shorter than {task.env_id}'s episodes (up to {limit}"
+            " steps): steps past it would couple to no atom"
+        )
+    return int(horizon or limit)
 
 
 @register(
@@ -123,7 +130,7 @@ def train(
     task: Task, demos: Demos, budget: int, seed: int, logger: Logger, config: PWILConfig
 ) -> Policy:
     atoms = expert_atoms(demos, config.subsampling, np.random.default_rng(seed))
-    horizon = config.horizon or time_limit(task, seed)
+    horizon = horizon_on(task, seed, config.horizon)
     sigma = config.beta * horizon / np.sqrt(task.obs_dim + task.act_dim)
     reward = PWILReward(atoms, config.n_envs, horizon, sigma, config.alpha)
     return trpo_on_reward(task, budget, seed, logger, config, reward)

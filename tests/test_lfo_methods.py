@@ -7,7 +7,7 @@ import pytest
 import torch
 
 from algorithms.airlfo import ShapedHead
-from algorithms.pwil import PWILConfig, PWILReward, expert_atoms
+from algorithms.pwil import PWILConfig, PWILReward, expert_atoms, horizon_on
 from algorithms.wailfo import WAILfOConfig
 from bench.imitation.coupling import SPARE, couple, standardizer
 from bench.imitation.data import Demos
@@ -143,3 +143,19 @@ def test_pwil_atoms_are_the_reached_states_subsampled_from_an_offset():
     assert 0 <= offset < 4 and every_fourth.tolist() == list(np.arange(1 + offset, 11, 4))
     with pytest.raises(ValueError, match="subsampling"):
         PWILConfig(subsampling=0)
+
+
+def test_pwil_horizon_is_the_time_limit_and_never_shorter():
+    """Steps past T would find every atom spent and earn the top reward: refused."""
+    from bench import envs
+    from bench.harness.registry import Task
+
+    env_id = "InvertedPendulum-v5"  # episodes of up to 1,000 steps
+    obs_dim, act_dim, low, high = envs.spaces(env_id)
+    task = Task(env_id, obs_dim, act_dim, low, high, lambda s: envs.make(env_id, s))
+    assert horizon_on(task, 0, None) == 1000
+    assert (
+        horizon_on(task, 0, 1500) == 1500
+    )  # mass left over at the end: the cost of a short episode
+    with pytest.raises(ValueError, match=r"horizon \(999\) is shorter than InvertedPendulum-v5"):
+        horizon_on(task, 0, 999)
