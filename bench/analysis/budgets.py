@@ -15,7 +15,6 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 
-import numpy as np
 import pandas as pd
 
 from bench.analysis import comparisons, curves, stats
@@ -109,7 +108,9 @@ def statistics(df: pd.DataFrame, reps: int = 2000) -> pd.DataFrame:
         iqm = stats.aggregate_scores(scores, reps=reps)
         iqm = iqm[iqm["metric"] == "iqm"].set_index("algorithm")
         fractions = comparisons.oracle_fractions(scores, names, reps).set_index("algorithm")
-        over_floor = stats.improvement_of_pairs(scores, _floor_pairs(scores, names), reps)
+        over_floor = stats.improvement_of_pairs(
+            scores, comparisons.floor_pairs(scores, names), reps
+        )
         over_floor = over_floor.set_index("algorithm")
         for name, runs in scores.items():
             at = iqm.loc[name]
@@ -126,16 +127,6 @@ def statistics(df: pd.DataFrame, reps: int = 2000) -> pd.DataFrame:
                 row |= {"over_floor_hi": over["hi"]}
             rows.append(row)
     return pd.DataFrame(rows, columns=COLUMNS)
-
-
-def _floor_pairs(scores: dict[str, np.ndarray], names: Names) -> list[tuple[str, str]]:
-    """(learner, its floor) for each learner whose floor ran in the same cell."""
-    pairs = []
-    for name in scores:
-        floor = comparisons.control_of(name, "floor", scores, names)
-        if names[name].role == "learner" and floor is not None:
-            pairs.append((name, floor))
-    return pairs
 
 
 def curve_statistics(curve_frame: pd.DataFrame, reps: int = 2000) -> pd.DataFrame:

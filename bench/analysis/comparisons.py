@@ -76,9 +76,16 @@ def improvement_pairs(
     rivals."""
     ordered = shown.in_order(n for n in names if shown[n].role != "ceiling")
     pairs = [(focus, other) for other in ordered if other != focus] if focus in names else []
-    for a in shown.with_role(ordered, "learner"):
+    return pairs + [(a, floor) for a, floor in floor_pairs(names, shown) if a != focus]
+
+
+def floor_pairs(names: Collection[str], shown: Names) -> list[tuple[str, str]]:
+    """(learner, the floor of its own family) for each learner among `names` whose floor is
+    among them too, in plot order."""
+    pairs = []
+    for a in shown.with_role(shown.in_order(names), "learner"):
         floor = control_of(a, "floor", names, shown)
-        if a != focus and floor is not None:
+        if floor is not None:
             pairs.append((a, floor))
     return pairs
 
