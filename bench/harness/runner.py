@@ -167,53 +167,55 @@ def run_suite(
     trial still running `trial_timeout` seconds after it started is stopped and recorded as
     failed. Records of these trials' cells made with other settings or another version of a
     plugin's code are moved aside first (`store.superseded`)."""
-    if backend == "dask" and scheduler is not None:
-        _dask_client(scheduler).close()  # unreachable: refused before anything is touched
-    records = list(store.scan(results_dir))
-    stale = store.superseded(records, specs)
-    if stale:
-        store.set_aside(results_dir, stale)
-        records = [r for r in records if r.trial_id not in stale]
-    have = {r.trial_id: store.status_of(r) for r in records}
-    todo = pending(specs, have, retry_failed)
-    unlinked = link_finished(todo, results_dir, priced_by if linked_from is None else linked_from)
-    linked, todo = len(todo) - len(unlinked), unlinked
-    skipped = len(specs) - len(todo)
-    snapshot_plan = _snapshot_plan(results_dir, snapshot_every, limit, have)
-    if not todo:
-        return RunSummary(0, 0, skipped, linked=linked, set_aside=len(stale))
-    others = [] if priced_by is None else store.scan_under(priced_by, besides=results_dir)
-    costs = CostModel.of(itertools.chain(records, others))
-    if snapshot_plan is not None:
-        costs.done_before = snapshot_plan.done_before(todo)
-    make_demo_pools(todo)
-    with _workers(backend, jobs, scheduler) as workers:
-        landing = _Landing(results_dir, costs, snapshot_plan, workers, todo, progress)
-        with closing(landing.bar):
-            # Each trial runs in a process of its own, forked by the worker (`run_trial_apart`);
-            # loky's workers also die with this driver, so an interrupted run leaves no orphans.
-            in_workers = backend == "loky" and workers > 1
-            dispatch = functools.partial(
-                _jobs,
-                costs=costs,
-                tensorboard=tensorboard,
-                first=first,
-                limit=limit,
-                snapshot_plan=snapshot_plan,
-                in_workers=in_workers,
-                trial_timeout=trial_timeout,
-            )
-            _run_all(todo, jobs, dispatch, landing)
-    left = len(todo) - landing.done - landing.failed - landing.paused
-    return RunSummary(
-        landing.done,
-        landing.failed,
-        skipped,
-        left=left,
-        paused=landing.paused,
-        linked=linked,
-        set_aside=len(stale),
-    )
+    # A named scheduler is reached first: one that cannot be is refused before anything is touched.
+    with _scheduler(backend, scheduler) as client:
+        records = list(store.scan(results_dir))
+        stale = store.superseded(records, specs)
+        if stale:
+            store.set_aside(results_dir, stale)
+            records = [r for r in records if r.trial_id not in stale]
+        have = {r.trial_id: store.status_of(r) for r in records}
+        todo = pending(specs, have, retry_failed)
+        unlinked = link_finished(
+            todo, results_dir, priced_by if linked_from is None else linked_from
+        )
+        linked, todo = len(todo) - len(unlinked), unlinked
+        skipped = len(specs) - len(todo)
+        snapshot_plan = _snapshot_plan(results_dir, snapshot_every, limit, have)
+        if not todo:
+            return RunSummary(0, 0, skipped, linked=linked, set_aside=len(stale))
+        others = [] if priced_by is None else store.scan_under(priced_by, besides=results_dir)
+        costs = CostModel.of(itertools.chain(records, others))
+        if snapshot_plan is not None:
+            costs.done_before = snapshot_plan.done_before(todo)
+        make_demo_pools(todo)
+        with _workers(backend, jobs, client) as workers:
+            landing = _Landing(results_dir, costs, snapshot_plan, workers, todo, progress)
+            with closing(landing.bar):
+                # Each trial runs in a process of its own, forked by the worker (`run_trial_apart`);
+                # loky's workers also die with this driver, so an interrupted run leaves no orphans.
+                in_workers = backend == "loky" and workers > 1
+                dispatch = functools.partial(
+                    _jobs,
+                    costs=costs,
+                    tensorboard=tensorboard,
+                    first=first,
+                    limit=limit,
+                    snapshot_plan=snapshot_plan,
+                    in_workers=in_workers,
+                    trial_timeout=trial_timeout,
+                )
+                _run_all(todo, jobs, dispatch, landing)
+        left = len(todo) - landing.done - landing.failed - landing.paused
+        return RunSummary(
+            landing.done,
+            landing.failed,
+            skipped,
+            left=left,
+            paused=landing.paused,
+            linked=linked,
+            set_aside=len(stale),
+        )
 
 
 def _snapshot_plan(
@@ -244,13 +246,36 @@ def make_demo_pools(specs: list[TrialSpec]) -> None:
 
 
 @contextmanager
-def _workers(backend: str, jobs: int, scheduler: str | None) -> Iterator[int]:
-    """joblib set to run on `backend` (loky here; dask: a scheduler's cluster, or a local one
-    when `scheduler` is None) for the block, which gets the number of workers."""
-    client = None
+def _scheduler(backend: str, scheduler: str | None) -> Iterator[Client | None]:
+    """A client of the dask scheduler at `scheduler` for the block; None where there is none to
+    reach (another backend, or dask on a local cluster)."""
+    if backend != "dask" or scheduler is None:
+        yield None
+        return
+    from distributed import Client
+
+    try:
+        _refused_at_once(scheduler)
+        client = Client(scheduler, timeout="20s")
+    except OSError as e:  # no scheduler there, or one that does not answer
+        raise BadInput(f"cannot reach the dask scheduler at {scheduler}: {e}") from None
+    try:
+        yield client
+    finally:
+        client.close()
+
+
+@contextmanager
+def _workers(backend: str, jobs: int, client: Client | None) -> Iterator[int]:
+    """joblib set to run on `backend` (loky here; dask: `client`'s cluster, or a local one
+    started for the block where it is None) for the block, which gets the number of workers."""
+    local = None
     try:
         if backend == "dask":
-            client = _dask_client(scheduler)
+            if client is None:
+                from distributed import Client
+
+                client = local = Client(processes=True)
             ctx = joblib.parallel_config(backend="dask")
             workers = sum(client.nthreads().values())
         else:
@@ -261,27 +286,14 @@ def _workers(backend: str, jobs: int, scheduler: str | None) -> Iterator[int]:
             warnings.filterwarnings("ignore", message="A worker stopped while some jobs were given")
             yield workers
     finally:
-        if client is not None:
-            client.close()
-
-
-def _dask_client(scheduler: str | None) -> Client:
-    """A client of the dask scheduler at `scheduler`, or of a local cluster where it is None."""
-    from distributed import Client
-
-    if scheduler is None:
-        return Client(processes=True)
-    try:
-        _refused_at_once(scheduler)
-        return Client(scheduler, timeout="20s")
-    except OSError as e:  # no scheduler there, or one that does not answer
-        raise BadInput(f"cannot reach the dask scheduler at {scheduler}: {e}") from None
+        if local is not None:
+            local.close()
 
 
 def _refused_at_once(scheduler: str) -> None:
-    """Raise ConnectionRefusedError where nothing listens at a TCP scheduler's address: dask
-    would keep trying for its whole timeout. Anything else (a slow or unknown host, another
-    protocol) is left to dask's own attempts."""
+    """Raise OSError (refused, unreachable network) where a TCP scheduler's address answers
+    at once that nothing can connect: dask would keep trying for its whole timeout. A slow or
+    unknown host, or another protocol, is left to dask's own attempts."""
     from distributed.comm import parse_address, parse_host_port
 
     try:
