@@ -7,6 +7,7 @@ matrices after `np.random.seed(0)`; rliable's library itself no longer imports u
 from __future__ import annotations
 
 import numpy as np
+import pytest
 from rliable import metrics
 
 from bench.analysis import bootstrap
@@ -62,3 +63,67 @@ def test_the_global_rng_is_left_alone():
     np.random.seed(123)
     bootstrap.interval_estimates({"x": X}, aggregates, reps=20, seed=5)
     assert np.random.rand() == expected
+
+
+@pytest.mark.parametrize("block_elements", [2**20, 9])
+@pytest.mark.parametrize(
+    "samples",
+    [(X,), (X, X[::-1] + 1), (np.arange(24.0).reshape(4, 2, 3),), (X, Y)],
+    ids=["one", "a pair alike in runs", "curves (runs x tasks x points)", "a pair unlike"],
+)
+def test_resamples_drawn_at_once_are_the_ones_drawn_rep_by_rep(
+    monkeypatch, samples, block_elements
+):
+    """rliable draws each rep's run indices with `choice`, sample by sample; the bootstrap
+    draws many reps at once where it can (blocks of 9 elements here cross the reps' seams)."""
+    monkeypatch.setattr(bootstrap, "BLOCK_ELEMENTS", block_elements)
+    reps, rng = 7, np.random.RandomState(3)
+    expected = []
+    for _ in range(reps):
+        expected.append([])
+        for x in samples:
+            runs = rng.choice(len(x), x.shape, replace=True)
+            strata = np.ogrid[tuple(slice(n) for n in (0, *x.shape[1:]))][1:]
+            expected[-1].append(x[(runs, *strata)])
+    blocks = bootstrap._resample_blocks(samples, reps, np.random.RandomState(3))
+    drawn = [rep for stacks in blocks for rep in zip(*stacks, strict=True)]
+    assert len(drawn) == reps
+    for got, want in zip(drawn, expected, strict=True):
+        assert all(np.array_equal(g, w) for g, w in zip(got, want, strict=True))
+
+
+def test_estimators_over_a_stack_of_resamples_are_theirs_resample_by_resample():
+    """What the reports bootstrap, computed a block of resamples at once, is to the bit what
+    rliable's estimators give one resample at a time: over run and task counts (odd, even,
+    one task), ties between runs and between the pair's columns, scales far apart."""
+    rng = np.random.default_rng(0)
+    taus = np.linspace(-2.0, 2.0, 11)
+    for runs in (1, 2, 3, 5, 8, 10, 13, 25):
+        for tasks in (1, 2, 3, 6):
+            stack = rng.standard_normal((20, runs, tasks)) * 10.0 ** rng.uniform(-3, 3)
+            other = rng.standard_normal((20, runs, tasks)).round(1)
+            if runs > 2:
+                stack[:, :2] = stack[:, 2:3]  # tied runs
+            other[::3] = stack[::3]  # resamples whose columns are alike
+            expected = {
+                "mean": [metrics.aggregate_mean(x) for x in stack],
+                "median": [metrics.aggregate_median(x) for x in stack],
+                "iqm": [metrics.aggregate_iqm(x) for x in stack],
+                "improvement": [
+                    metrics.probability_of_improvement(x, y)
+                    for x, y in zip(stack, other, strict=True)
+                ],
+                # rliable's score distribution (its library's, which does not import here)
+                "profile": [[np.mean(x > tau) for tau in taus] for x in stack],
+                "iqm per column": [bootstrap.iqm(x, axis=0) for x in stack],  # curves' bands
+            }
+            got = {
+                "mean": bootstrap.aggregate_mean_over(stack),
+                "median": bootstrap.aggregate_median_over(stack),
+                "iqm": bootstrap.aggregate_iqm_over(stack),
+                "improvement": bootstrap.probability_of_improvement_over_resamples(stack, other),
+                "profile": bootstrap.score_distribution_over(stack, taus),
+                "iqm per column": bootstrap.iqm(stack, axis=1),
+            }
+            for name, want in expected.items():
+                assert np.array_equal(got[name], np.array(want)), (name, runs, tasks)

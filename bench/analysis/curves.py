@@ -11,7 +11,7 @@ from collections import defaultdict
 import numpy as np
 import pandas as pd
 
-from bench.analysis.bootstrap import interval_estimates, iqm
+from bench.analysis.bootstrap import interval_estimates, iqm, over_resamples
 
 CELL = ["env_id", "algorithm", "n_demos"]
 TIME_TO_COLUMNS = [*CELL, "seeds", "median", "worst", "short"]
@@ -80,6 +80,7 @@ def iqm_curves(curves: pd.DataFrame, reps: int = 2000, seed: int = 0) -> pd.Data
     return pd.DataFrame(out, columns=IQM_CURVE_COLUMNS)
 
 
+@over_resamples(lambda stack: iqm(stack, axis=1))
 def _iqm_per_column(scores: np.ndarray) -> np.ndarray:
     """IQM of each column of a (runs x cells) array: one bootstrap of every cell at once."""
     return iqm(scores, axis=0)

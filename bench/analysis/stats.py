@@ -18,8 +18,12 @@ from rliable import metrics  # numpy and scipy only; rliable's bootstrap is benc
 
 from bench.analysis.bootstrap import (
     aggregate_iqm,
+    aggregate_iqm_over,
+    aggregate_mean_over,
+    aggregate_median_over,
     interval_estimates,
     iqm,
+    over_resamples,
     performance_profiles,
     probability_of_improvement_over,
 )
@@ -32,6 +36,13 @@ METRICS: dict[str, Callable[[np.ndarray], float]] = {
     "iqm": aggregate_iqm,
 }
 """The aggregates of every score table, in the order the report's columns show them."""
+
+METRICS_OVER: dict[str, Callable[[np.ndarray], np.ndarray]] = {
+    "mean": aggregate_mean_over,
+    "median": aggregate_median_over,
+    "iqm": aggregate_iqm_over,
+}
+"""`METRICS` of each resample of a stack (reps x runs x tasks) at once, to the bit."""
 
 
 def score_dict(
@@ -105,6 +116,7 @@ def aggregate_scores(
 ) -> pd.DataFrame:
     """Mean, median and IQM per algorithm with 95% CIs: algorithm, metric, estimate, lo, hi."""
 
+    @over_resamples(lambda stack: np.stack([f(stack) for f in METRICS_OVER.values()], axis=1))
     def aggregate(x: np.ndarray) -> np.ndarray:
         return np.array([f(x) for f in METRICS.values()])
 
