@@ -155,26 +155,21 @@ def _resample_blocks(
     samples: tuple[np.ndarray, ...], reps: int, rng: np.random.RandomState
 ) -> Iterator[tuple[np.ndarray, ...]]:
     """The reps' resamples of every sample, a block of reps at a time: per block, one stack
-    (block, *sample shape) per sample. Drawn as rliable draws them: rep by rep, each sample in
-    turn, `RandomState.choice(runs, shape)`. That is `randint(0, runs, shape)`, which fills
-    its output element by element from the stream, so where every sample has as many runs,
-    one draw of (reps, all their elements) holds what the reps' draws would, in order; with
-    other run counts (other bounds) the blocks are of one rep."""
+    (block, *sample shape) per sample. Drawn as rliable draws them, rep by rep, each sample in
+    turn: `RandomState.choice(runs, shape)`, that is `randint(0, runs, shape)`, which draws
+    element by element from the stream, each element by its own bound where the bounds are an
+    array. So one draw of (reps, every sample's elements), each bounded by its sample's run
+    count, holds what the reps' draws would, in order, at a fraction of the calls."""
     strata = [_strata(x) for x in samples]
-    if len({len(x) for x in samples}) > 1:
-        for _ in range(reps):
-            yield tuple(
-                x[(rng.randint(0, len(x), (1, *x.shape)), *s)]
-                for x, s in zip(samples, strata, strict=True)
-            )
-        return
     sizes = [x.size for x in samples]
+    runs_of = np.concatenate([np.full(x.size, len(x)) for x in samples])
     block = max(1, BLOCK_ELEMENTS // sum(sizes))
     for start in range(0, reps, block):
-        runs = rng.randint(0, len(samples[0]), (min(block, reps - start), sum(sizes)))
+        drawn = min(block, reps - start)
+        runs = rng.randint(0, np.broadcast_to(runs_of, (drawn, runs_of.size)))
         split = np.split(runs, np.cumsum(sizes)[:-1], axis=1)
         yield tuple(
-            x[(r.reshape(len(r), *x.shape), *s)]
+            x[(r.reshape(drawn, *x.shape), *s)]
             for x, r, s in zip(samples, split, strata, strict=True)
         )
 
