@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import io
 import subprocess
 import sys
 from pathlib import Path
@@ -337,6 +338,28 @@ def test_cli_writes_a_report_per_suite(two_suites, tmp_path, capsys, table_rows)
     assert ["InvertedPendulum", "20.0 ± 13.9 (2 seeds)", "1000.0 ± 13.9 (2 seeds)"] in table_rows(
         only_references
     )
+
+
+class _Terminal(io.StringIO):
+    def isatty(self) -> bool:
+        return True
+
+
+def test_a_report_says_what_it_is_at_on_a_terminal_and_nothing_elsewhere(
+    two_suites, tmp_path, monkeypatch, capsys
+):
+    """A large folder's report takes a minute: on a terminal one line says which step it is at
+    (and is cleared when it is done); piped, stderr stays empty."""
+    args = ["report", str(two_suites / "a"), "--out", str(tmp_path / "out"), "--reps", "50"]
+    assert cli.main(args) == 0
+    assert capsys.readouterr().err == ""
+    terminal = _Terminal()
+    monkeypatch.setattr(sys, "stderr", terminal)
+    assert cli.main(args) == 0
+    shown = terminal.getvalue()
+    for stage in ("reading the records", "statistics", "figure figure2", "tables"):
+        assert f"report {two_suites / 'a'}: {stage}" in shown, shown
+    assert "wrote" not in shown and "wrote" in capsys.readouterr().out
 
 
 @pytest.mark.slow

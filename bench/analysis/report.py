@@ -27,6 +27,7 @@ from typing import NamedTuple
 
 import pandas as pd
 from matplotlib.figure import Figure
+from tqdm import tqdm
 
 from bench.analysis import count_sections, findings, plot, sections
 from bench.analysis.comparisons import TARGET
@@ -87,18 +88,32 @@ def write_report(
     """
     results_dir = Path(results_dir)
     out_dir = results_dir / "report" if out_dir is None else Path(out_dir)
-    trials = frames.load(results_dir)
-    if trials.empty:
-        raise FileNotFoundError(f"{store.trials_dir(results_dir)}: no readable trial record")
-    found = findings.find(normalize(trials), frames.load_curves(results_dir), reps, focus)
-    out_dir.mkdir(parents=True, exist_ok=True)
-    for name, figure in figures(found):
-        plot.save(figure, out_dir / name)
-    for name, frame in csvs(found).items():
-        frame.to_csv(out_dir / name, index=False)
-    path = out_dir / REPORT
-    path.write_text(text(found, results_dir, reps, focus))
+    # what it is doing, on a terminal's line (a large folder's report takes a minute)
+    doing = f"report {results_dir}: "
+    with tqdm(
+        desc=doing + "reading the records", bar_format=STAGE, disable=None, leave=False
+    ) as bar:
+        at = lambda stage: bar.set_description_str(doing + stage)  # noqa: E731
+        trials = frames.load(results_dir)
+        if trials.empty:
+            raise FileNotFoundError(f"{store.trials_dir(results_dir)}: no readable trial record")
+        curves = frames.load_curves(results_dir)
+        at("statistics")
+        found = findings.find(normalize(trials), curves, reps, focus)
+        out_dir.mkdir(parents=True, exist_ok=True)
+        for name, figure in figures(found):
+            at(f"figure {name}")
+            plot.save(figure, out_dir / name)
+        at("tables")
+        for name, frame in csvs(found).items():
+            frame.to_csv(out_dir / name, index=False)
+        path = out_dir / REPORT
+        path.write_text(text(found, results_dir, reps, focus))
     return WrittenReport(path, found.aggregates, found.improvements, found.names)
+
+
+STAGE = "{desc} [{elapsed}]"
+"""The report's progress line: what it is at, and for how long it has run."""
 
 
 def figures(found: Findings) -> Iterator[tuple[str, Figure]]:
