@@ -32,10 +32,11 @@ def read_bytes(path: str | Path, limit: int, what: str = "file") -> bytes:
         raise UnreadableFile(f"{path}: a folder, not a {what}") from None
     except OSError as e:
         raise UnreadableFile(f"{path}: cannot read this {what}: {e.strerror}") from None
+    kind = os.fstat(fd).st_mode
+    if not stat.S_ISREG(kind):  # a folder opens too, and only fdopen would refuse it
+        os.close(fd)
+        raise UnreadableFile(f"{path}: not a regular file (a {_kind(kind)}), not a {what}")
     with os.fdopen(fd, "rb") as f:
-        kind = os.fstat(fd).st_mode
-        if not stat.S_ISREG(kind):
-            raise UnreadableFile(f"{path}: not a regular file (a {_kind(kind)}), not a {what}")
         data = f.read(limit + 1)  # a /proc file says it holds 0 bytes: read, and count
     if len(data) > limit:
         raise UnreadableFile(f"{path}: more than {_size(limit)}: too large for a {what}")

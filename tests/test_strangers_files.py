@@ -29,10 +29,11 @@ def refused_quickly(bench_here, *args, within: float = 20.0):
     return out[0]
 
 
-def test_a_fifo_or_a_device_where_a_suite_is_expected_is_one_line(tmp_path, bench_here):
-    fifo = tmp_path / "suite.yaml"
+def test_a_fifo_a_device_or_a_folder_where_a_suite_is_expected_is_one_line(tmp_path, bench_here):
+    fifo, folder = tmp_path / "suite.yaml", tmp_path / "folder.yaml"
     os.mkfifo(fifo)
-    for path in (fifo, Path("/dev/zero")):
+    folder.mkdir()
+    for path in (fifo, Path("/dev/zero"), folder):
         out = refused_quickly(bench_here, "run", str(path), "--estimate")
         assert out.returncode == 2 and "not a regular file" in out.stderr, out.stderr
         assert len(out.stderr.strip().splitlines()) == 1
