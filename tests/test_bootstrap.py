@@ -68,8 +68,14 @@ def test_the_global_rng_is_left_alone():
 @pytest.mark.parametrize("block_elements", [2**20, 9])
 @pytest.mark.parametrize(
     "samples",
-    [(X,), (X, X[::-1] + 1), (np.arange(24.0).reshape(4, 2, 3),), (X, Y)],
-    ids=["one", "a pair alike in runs", "curves (runs x tasks x points)", "a pair unlike"],
+    [(X,), (X, X[::-1] + 1), (np.arange(24.0).reshape(4, 2, 3),), (X, Y), (X[:1], Y)],
+    ids=[
+        "one",
+        "a pair alike in runs",
+        "curves (runs x tasks x points)",
+        "a pair unlike",
+        "one run",
+    ],
 )
 def test_resamples_drawn_at_once_are_the_ones_drawn_rep_by_rep(
     monkeypatch, samples, block_elements
