@@ -209,3 +209,17 @@ def test_a_report_says_which_learner_has_no_floor_to_be_read_against():
     text = sections.how_to_read(list(names), 100, names, focus="own-loop")
     assert "P(own-loop > X)" in text
     assert "**own-loop** has no optimizer family" in text and "**GAIfO** has" not in text
+
+
+def test_the_scaffold_is_lint_clean_in_a_package_of_its_own(tmp_path, bench_here):
+    """`bench new-algorithm` writes code a researcher's own ruff passes as it stands: its
+    package is another project, where ifo-bench is a third-party import."""
+    import subprocess
+    import sys
+
+    out = bench_here("new-algorithm", "my-ifo", str(tmp_path / "my-ifo"))
+    assert out.returncode == 0, out.stderr
+    for check in (["check", "."], ["format", "--check", "."]):
+        ruff = [sys.executable, "-m", "ruff", *check]
+        done = subprocess.run(ruff, cwd=tmp_path / "my-ifo", capture_output=True, text=True)
+        assert done.returncode == 0, done.stdout + done.stderr

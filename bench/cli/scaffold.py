@@ -35,7 +35,6 @@ from dataclasses import dataclass
 import numpy as np
 import torch
 import torch.nn.functional as F
-
 from bench.harness.learners import ImitationTRPOConfig, one_batch, trpo_on_reward
 from bench.harness.registry import Logger, Policy, Task, register
 from bench.imitation.data import Demos
@@ -101,8 +100,9 @@ class Judge(Stateful):
         return x.map(lambda field: field[rows])
 
     def __call__(self, batch: Batch) -> Rewards:
-        x, terminated = batch_transitions(batch, self.task.action_low, self.task.action_high,
-                                          self.config.gamma)
+        x, terminated = batch_transitions(
+            batch, self.task.action_low, self.task.action_high, self.config.gamma
+        )
         x = x.map(torch.as_tensor)
         for _ in range(self.config.judge_steps):  # demonstrated: 1, the policy's: 0
             policy, expert = self.logit(self.draw(x)), self.logit(self.draw(self.expert))
@@ -146,6 +146,9 @@ dependencies = ["ifo-bench"]
 # How ifo-bench finds the algorithm: no edit of the harness.
 [project.entry-points."ifo_bench.algorithms"]
 {name} = "{module}"
+
+[tool.ruff]
+line-length = 100
 """
 
 SUITE = """# {name} beside the committed GAIfO, GAIL, BCO, TCN and controls on Hopper-v5, Figure 2's
