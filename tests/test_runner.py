@@ -459,6 +459,21 @@ def test_one_record_of_a_swamped_machine_does_not_set_the_price():
     assert row.seconds == pytest.approx(22.0) and "median of 5" in row.basis
 
 
+def test_records_that_measured_their_cpu_time_price_by_it_not_by_their_wall_time():
+    """Two trials that shared a core took twice their cost in wall time; their CPU time is the
+    cost. Where a kind has records of both, the ones that measured CPU time price it."""
+
+    def done(wall: float, cpu: float | None) -> TrialResult:
+        spec = TrialSpec("s", "A", "gaifo", 5, 0, 1000, 10)
+        return TrialResult(spec, "ok", [1.0], [], 1000, wall, {}, cpu_time=cpu)
+
+    todo = [TrialSpec("s", "A", "gaifo", 5, 1, 2000, 10)]
+    (row,) = estimate(todo, [done(20.0, None), done(22.0, None)])
+    assert row.seconds == pytest.approx(42.0)  # wall times, the only measure there is
+    (row,) = estimate(todo, [done(20.0, None), done(22.0, 10.0), done(19.0, 11.0)])
+    assert row.seconds == pytest.approx(21.0) and "median of 2" in row.basis
+
+
 def test_a_kind_new_to_an_env_is_scaled_from_the_algorithms_measured_there():
     """GAIfO on a new env, where only the oracle has run: the oracle's rate here times GAIfO's
     rate over the oracle's on the envs where both ran (a geometric mean over them)."""

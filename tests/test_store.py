@@ -46,6 +46,16 @@ def test_round_trip(tmp_path):
     assert isinstance(back.spec, TrialSpec) and isinstance(back.curve[0], CurvePoint)
 
 
+def test_cpu_time_is_kept_where_measured_and_an_old_record_is_written_as_it_was(tmp_path):
+    measured = result(cpu_time=11.25)
+    assert store.read(store.write(tmp_path / "a", measured)) == measured
+    path = store.write(tmp_path / "b", result())  # a record from before CPU time was measured
+    assert "cpu_time" not in json.loads(path.read_text()) and store.read(path).cpu_time is None
+    raw = json.loads(path.read_text()) | {"cpu_time": "11 s"}  # edited by hand: not trusted
+    path.write_text(json.dumps(raw))
+    assert store.read(path).cpu_time is None
+
+
 def test_a_record_keeps_what_its_algorithm_was_and_an_old_one_is_told_by_the_registry(tmp_path):
     """Records say what their algorithm is (role, family, label), so analysis never guesses
     it from a name; a record from before they did is read as the registry describes it now."""

@@ -1,5 +1,6 @@
-"""What trials cost, learned from the wall times of finished records: one price for the
-runner's dispatch order, its progress bar, `bench run --time-limit` and `--estimate`."""
+"""What trials cost, learned from finished records (their CPU time where they measured it,
+else their wall time): one price for the runner's dispatch order, its progress bar,
+`bench run --time-limit` and `--estimate`."""
 
 from __future__ import annotations
 
@@ -47,23 +48,35 @@ class Tally:
     fixed: list[float] = field(default_factory=list)
     """Of the trials that trained on no env step (the references, random and expert): wall
     seconds, their evaluation's, at any budget."""
+    cpu_rates: list[float] = field(default_factory=list)
+    """`rates` in CPU seconds, of the records that measured them. Where there are any, they
+    are what prices: a core's cost whatever else loaded the machine, where the wall time of a
+    trial that shared its core with another is twice its cost."""
+    cpu_fixed: list[float] = field(default_factory=list)
+    """`fixed` in CPU seconds, likewise."""
     _medians: tuple[float, float] | None = field(default=None, repr=False, compare=False)
     """(rate, fixed) medians, kept until the next record lands."""
 
     @property
     def trials(self) -> int:
-        return len(self.rates) + len(self.fixed)
+        """How many records the price rests on."""
+        return sum(map(len, self._priced()))
 
     @property
     def trained(self) -> int:
-        return len(self.rates)
+        return len(self.rates) + len(self.cpu_rates)
 
-    def add(self, wall_time: float, budget: int, trained: bool) -> None:
+    def add(self, seconds: float, budget: int, trained: bool, cpu: bool = False) -> None:
+        """A record that took `seconds` (CPU seconds where `cpu`, else wall seconds)."""
         if trained:  # training time scales with the budget
-            self.rates.append(wall_time / budget)
+            (self.cpu_rates if cpu else self.rates).append(seconds / budget)
         else:
-            self.fixed.append(wall_time)
+            (self.cpu_fixed if cpu else self.fixed).append(seconds)
         self._medians = None
+
+    def _priced(self) -> tuple[list[float], list[float]]:
+        """The rates and fixed times that price: CPU-measured ones where there are any."""
+        return self.cpu_rates or self.rates, self.cpu_fixed or self.fixed
 
     def seconds_per_step(self) -> float:
         """The median of the trials that trained (0 where none did)."""
@@ -73,20 +86,20 @@ class Tally:
         """What a like trial of `budget` steps takes: the trials that trained at their median
         rate, the others at their median time, weighted by how many there are of each."""
         rate, fixed = self._median()
-        return (rate * budget * len(self.rates) + fixed * len(self.fixed)) / self.trials
+        rates, fixeds = self._priced()
+        return (rate * budget * len(rates) + fixed * len(fixeds)) / self.trials
 
     def _median(self) -> tuple[float, float]:
         if self._medians is None:  # prices are asked for far more often than records land
-            self._medians = tuple(
-                float(np.median(v)) if v else 0.0 for v in (self.rates, self.fixed)
-            )
+            self._medians = tuple(float(np.median(v)) if v else 0.0 for v in self._priced())
         return self._medians
 
 
 @dataclass
 class CostModel:
-    """What a trial is expected to cost in wall seconds on one core, learned from finished
-    records. One price for everything that needs one: the runner's dispatch order (longest
+    """What a trial is expected to cost in seconds of one core, learned from finished
+    records: their CPU seconds where they measured them (`TrialResult.cpu_time`), else their
+    wall seconds. One price for everything that needs one: the runner's dispatch order (longest
     first, so a run does not end with one long trial on one core while the others idle), the
     progress bar's time left, `--time-limit` and `--estimate`.
 
@@ -97,8 +110,9 @@ class CostModel:
     seen the same way (rough: envs step at different speeds; a state trial never goes by a
     pixel one's).
     Budget alone is a poor guide: at the same budget a BCO trial takes 3x a GAIfO one, and the
-    references (random, expert) take almost nothing. Records made while the machine was busy
-    make a price high, and the median keeps one swamped record from setting it.
+    references (random, expert) take almost nothing. Wall times made while the machine was
+    busy make a price high (CPU times do not), and the median keeps one swamped record from
+    setting it.
     """
 
     done: dict[tuple[str | None, str, str], Tally] = field(default_factory=dict)
@@ -125,7 +139,9 @@ class CostModel:
             with self.lock:
                 key = (observed(spec), spec.env_id, priced_as(spec))
                 tally = self.done.setdefault(key, Tally())
-                tally.add(record.wall_time, spec.budget, trained=record.env_steps > 0)
+                measured = record.cpu_time is not None
+                seconds = record.cpu_time if measured else record.wall_time
+                tally.add(seconds, spec.budget, trained=record.env_steps > 0, cpu=measured)
 
     def finished(self, record: TrialResult) -> None:
         """Learn from a record this run has just written: what it took against what it was

@@ -99,6 +99,8 @@ def write(results_dir: str | Path, result: TrialResult) -> Path:
     del record["stored_in"]  # where the reader found it
     if not record["resumed_at"]:  # trials that ran in one go: records as they always were
         del record["resumed_at"]
+    if record["cpu_time"] is None:  # not measured: records as they always were
+        del record["cpu_time"]
     for optional in OPTIONAL_FIELDS:  # unset: records as they always were
         if record["spec"][optional] is None:
             del record["spec"][optional]
@@ -212,6 +214,7 @@ def read(path: str | Path) -> TrialResult:
         family=family,
         label=label,
         resumed_at=raw.get("resumed_at", []),
+        cpu_time=_cpu_time(raw.get("cpu_time")),
     )
 
 
@@ -385,6 +388,12 @@ def _finite(value: Any) -> Any:
     if isinstance(value, np.ndarray | np.generic):
         return _finite(value.tolist())  # runners may hand over numpy returns
     return value
+
+
+def _cpu_time(value: Any) -> float | None:
+    """A record's `cpu_time`, where it holds a number (a hand-edited one is not trusted)."""
+    number = isinstance(value, int | float) and not isinstance(value, bool)
+    return float(value) if number and math.isfinite(value) and value >= 0 else None
 
 
 def _float(value: Any) -> float:

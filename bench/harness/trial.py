@@ -176,7 +176,7 @@ def run_trial(
     it saves and stops, and the result's status is "paused" (no record: the trial is not
     over)."""
     torch.set_num_threads(1)  # joblib workers share the cores: one thread each
-    start = time.time()
+    start, cpu_start = time.time(), time.process_time()
     tally = StepTally()
     eval_seed = EVAL_SEED + 1000 * spec.seed
     eval_envs: list[gym.Env] = []
@@ -225,8 +225,15 @@ def run_trial(
         family=None if algo is None else algo.family,
         label=None if algo is None else registry.shown_as(spec.algorithm, spec.label),
         resumed_at=[] if resumed is None else resumed.resumed_at,
+        cpu_time=_rounded(
+            time.process_time() - cpu_start if resumed is None else resumed.cpu_spent()
+        ),
         policy=outcome.policy if ok else None,
     )
+
+
+def _rounded(seconds: float | None) -> float | None:
+    return None if seconds is None else round(seconds, 3)
 
 
 def train_and_evaluate(

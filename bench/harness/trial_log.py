@@ -100,13 +100,23 @@ class TrialSnapshots:
     logger: TrialLogger
     spent_before: float = 0.0
     """Wall seconds the trial trained before this run resumed it (up to its snapshot)."""
+    cpu_before: float | None = 0.0
+    """CPU seconds of those runs (None: a snapshot from before they were kept)."""
     resumed_at: list[int] = field(default_factory=list)
     started: float = field(default_factory=time.time)
+    cpu_started: float = field(default_factory=time.process_time)
     _last: float = field(default_factory=time.monotonic)
 
     def spent(self) -> float:
         """Wall seconds of training so far, runs before this one's included."""
         return self.spent_before + time.time() - self.started
+
+    def cpu_spent(self) -> float | None:
+        """CPU seconds of this trial's process so far, runs before this one's included (None
+        where a run before did not keep them)."""
+        if self.cpu_before is None:
+            return None
+        return self.cpu_before + time.process_time() - self.cpu_started
 
     def due(self) -> bool:
         return self.plan.stopping() or time.monotonic() - self._last >= self.plan.every_s
@@ -118,6 +128,7 @@ class TrialSnapshots:
             "logs": self.logger.logs,
             "next_eval": self.logger._next,
             "spent_s": self.spent(),
+            "cpu_s": self.cpu_spent(),
             "resumed_at": self.resumed_at,
         }
         payload = {"format": SNAPSHOT_FORMAT, "trial": trial, "algorithm": state}
@@ -136,6 +147,7 @@ class TrialSnapshots:
         self.logger.logs = trial["logs"]
         self.logger._next = trial["next_eval"]
         self.spent_before, self.started = trial["spent_s"], time.time()
+        self.cpu_before, self.cpu_started = trial.get("cpu_s"), time.process_time()
         self.resumed_at = [*trial["resumed_at"], trial["env_steps"]]
         return payload["algorithm"]
 

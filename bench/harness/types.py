@@ -161,6 +161,11 @@ class TrialResult:
     resumed_at: list[int] = field(default_factory=list)
     """Env steps at which the trial was resumed from a snapshot (`bench.harness.snapshots`) after an
     interruption; empty where it trained in one go."""
+    cpu_time: float | None = None
+    """CPU seconds (user and system) of the trial's own process, runs before a resume
+    included: what it cost a core whatever else loaded the machine, where `wall_time` grows
+    with the load. None in records written before it was measured, and where a trial resumed
+    from a snapshot that did not keep it."""
     policy: bytes | None = field(default=None, repr=False)
     """The final policy's file (`bench.harness.policies`), on its way from the worker to the driver,
     which writes it beside the record; never part of the record itself."""
