@@ -29,6 +29,7 @@ TRIAL_COLUMNS = [
     "return_std",
     "env_steps",
     "wall_time",
+    "cpu_time",
     "state_distance",
     "software",
 ]
@@ -90,6 +91,7 @@ def _trial_row(r: TrialResult) -> dict[str, Any]:
         "return_std": float(returns.std()) if ok else math.nan,
         "env_steps": r.env_steps,
         "wall_time": r.wall_time,
+        "cpu_time": math.nan if r.cpu_time is None else r.cpu_time,
         "state_distance": math.nan
         if r.state_distance is None or not ok
         else float(r.state_distance),
