@@ -14,7 +14,7 @@ from rliable import metrics
 
 from bench import cli
 from bench.analysis import bootstrap, comparisons, curves, findings, labels, report, sections
-from bench.harness import store
+from bench.harness import frames, store
 from bench.harness.types import CurvePoint, TrialResult, TrialSpec
 
 from frames import names
@@ -228,6 +228,18 @@ def test_cost_per_trial(written, table_rows, table_rule):
     header = ["env", "algorithm", "budget (env steps)", "trials", "wall time per trial"]
     rule = table_rule(text, [*header, "core-hours"])
     assert [cell.endswith(":") for cell in rule] == [False, False, True, True, True, True]
+
+
+def test_cost_per_trial_adds_cpu_time_where_records_measured_it(tmp_path, table_rows):
+    for seed, cpu in ((0, 6.0), (1, 8.0)):
+        store.write(tmp_path, trial(PENDULUM, "gaifo", 5, seed, cpu_time=cpu))
+        store.write(tmp_path, trial(PENDULUM, "random", 0, seed))  # older than the measure
+    text = sections.costs(frames.load(tmp_path))
+    assert "CPU time is what the trial's own process took" in text
+    rows = table_rows(text)
+    assert rows[0][-1] == "CPU time per trial"
+    assert ["InvertedPendulum", "GAIfO", "1,000", "2", "12 s", "0.01", "7 s"] in rows
+    assert ["InvertedPendulum", "Random", "1,000", "2", "12 s", "0.01", "-"] in rows
 
 
 def test_fast_metrics_are_rliables_to_the_bit():

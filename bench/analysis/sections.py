@@ -269,6 +269,14 @@ def costs(df: pd.DataFrame) -> str:
         "trials x wall time.",
         "",
     ]
+    # CPU seconds, where records measured them: what a trial cost whatever shared its core
+    cpu = "cpu_time" in ok and ok["cpu_time"].notna().any()
+    if cpu:
+        lines[-1:-1] = [
+            "",
+            "CPU time is what the trial's own process took: below its wall time by what shared",
+            "its core (a dash where its records are older than the measure).",
+        ]
     names = Names.of(df)
     rows = []
     for env_id in labels.env_order(ok["env_id"].unique()):
@@ -284,6 +292,7 @@ def costs(df: pd.DataFrame) -> str:
                     str(len(cell)),
                     duration(cell["wall_time"].mean()),
                     f"{cell['wall_time'].sum() / 3600:.2f}",
+                    *([_cpu_per_trial(cell["cpu_time"])] if cpu else []),
                 ]
             )
     header = [
@@ -293,6 +302,13 @@ def costs(df: pd.DataFrame) -> str:
         "trials",
         "wall time per trial",
         "core-hours",
+        *(["CPU time per trial"] if cpu else []),
     ]
     lines.append(table(pd.DataFrame(rows, columns=header), right=header[2:]))
     return "\n".join(lines)
+
+
+def _cpu_per_trial(seconds: pd.Series) -> str:
+    """Mean CPU time of the trials that measured it, or a dash where none did."""
+    measured = seconds.dropna()
+    return duration(measured.mean()) if len(measured) else "-"
