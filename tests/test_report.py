@@ -230,6 +230,24 @@ def test_cost_per_trial(written, table_rows, table_rule):
     assert [cell.endswith(":") for cell in rule] == [False, False, True, True, True, True]
 
 
+def test_a_report_where_every_learner_failed_says_why_not_a_traceback(tmp_path):
+    """A plugin that fails on every trial still gets its report: the failed trials named with
+    what each raised, and no statistics, in words."""
+    for seed in range(2):
+        for algorithm in ("random", "expert"):
+            store.write(tmp_path, trial(PENDULUM, algorithm, 0, seed))
+        raised = "Traceback (most recent call last):\n  ...\nValueError: the policy returned NaN"
+        store.write(
+            tmp_path,
+            trial(
+                PENDULUM, "gaifo", 1, seed, status="failed", returns=[], curve=[], traceback=raised
+            ),
+        )
+    text = report.write_report(tmp_path, reps=REPS).path.read_text()
+    assert "GAIfO, 1 demonstration, seed 0: `ValueError: the policy returned NaN`" in text
+    assert "No aggregate statistics: no learner has a finished trial on every env" in text
+
+
 def test_cost_per_trial_adds_cpu_time_where_records_measured_it(tmp_path, table_rows):
     for seed, cpu in ((0, 6.0), (1, 8.0)):
         store.write(tmp_path, trial(PENDULUM, "gaifo", 5, seed, cpu_time=cpu))

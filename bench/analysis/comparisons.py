@@ -194,6 +194,9 @@ def count_statistics(df: pd.DataFrame, n: int, reps: int, focus: str = TARGET) -
         scores = stats.score_dict(df, n, algorithms=names, left_out=left_out)
     except ValueError as e:
         return CountStatistics({}, left_out=left_out, failure=str(e))
+    if not scores:  # every learner's trials failed, or none has a seed on every env
+        why = "no learner has a finished trial on every env (see the trials left out)"
+        return CountStatistics({}, left_out=left_out, failure=why)
     aggregate = stats.aggregate_scores(scores, reps=reps)
     aggregate = aggregate.assign(
         seeds=[scores[a].shape[0] for a in aggregate["algorithm"]],

@@ -23,6 +23,11 @@ MAX_LISTED = 20
 """Failed trials named one by one in the header; the rest are counted."""
 
 
+def _code(text: str) -> str:
+    """`text` fit for inline code: a backquote in it would end the span."""
+    return text.replace("`", "'")
+
+
 def seen(df: pd.DataFrame, env_id: str) -> str:
     """ ", from pixels" where the env's learners observed frames (`observation: pixels`)."""
     seen = df.loc[df["env_id"] == env_id, "observation"]
@@ -63,6 +68,7 @@ def header(df: pd.DataFrame, results_dir: Path) -> str:
         lines += [
             f"- {labels.env_label(r.env_id)}, {label(r.algorithm)}, "
             f"{labels.demos_label(r.n_demos, 'demonstration')}, seed {r.seed}"
+            + (f": `{_code(r.failure)}`" if isinstance(r.failure, str) else "")
             for r in failed.head(MAX_LISTED).itertuples()
         ]
         if len(failed) > MAX_LISTED:

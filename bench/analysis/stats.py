@@ -37,6 +37,8 @@ METRICS: dict[str, Callable[[np.ndarray], float]] = {
 }
 """The aggregates of every score table, in the order the report's columns show them."""
 
+AGGREGATE_COLUMNS = ["algorithm", "metric", "estimate", "lo", "hi"]
+
 METRICS_OVER: dict[str, Callable[[np.ndarray], np.ndarray]] = {
     "mean": aggregate_mean_over,
     "median": aggregate_median_over,
@@ -132,7 +134,8 @@ def aggregate_scores(
             }
             for name in scores
             for i, metric in enumerate(METRICS)
-        ]
+        ],
+        columns=AGGREGATE_COLUMNS,  # kept where no learner has a score, and no row is made
     )
 
 

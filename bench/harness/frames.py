@@ -30,6 +30,7 @@ TRIAL_COLUMNS = [
     "env_steps",
     "wall_time",
     "cpu_time",
+    "failure",
     "state_distance",
     "software",
 ]
@@ -92,11 +93,22 @@ def _trial_row(r: TrialResult) -> dict[str, Any]:
         "env_steps": r.env_steps,
         "wall_time": r.wall_time,
         "cpu_time": math.nan if r.cpu_time is None else r.cpu_time,
+        "failure": None if ok else failure(r.traceback),
         "state_distance": math.nan
         if r.state_distance is None or not ok
         else float(r.state_distance),
         "software": software(r.versions),
     }
+
+
+FAILURE_CHARS = 200
+"""The most of a failure's line a frame keeps (the whole traceback is in the record)."""
+
+
+def failure(traceback: str | None) -> str | None:
+    """What a failed trial's traceback ends with: its exception and message, on one line."""
+    lines = (traceback or "").strip().splitlines()
+    return lines[-1][:FAILURE_CHARS] if lines else None
 
 
 def software(versions: dict[str, str]) -> str:
