@@ -27,6 +27,10 @@ def not_finite(task, demos, budget, seed, logger, config):
     return lambda obs: np.full((len(obs), task.act_dim), np.nan, np.float32)
 
 
+def no_policy(task, demos, budget, seed, logger, config):
+    pass  # trained, and forgot to return what it trained
+
+
 def over_budget(task, demos, budget, seed, logger, config):
     env = task.make_env(seed)
     try:
@@ -42,6 +46,7 @@ def over_budget(task, demos, budget, seed, logger, config):
     [
         (wrong_shape, "the policy returned actions of shape (2, 2) for 2 observations"),
         (not_finite, "the policy returned non-finite actions"),
+        (no_policy, "rule-breaker's train returned NoneType, not a policy"),
         (over_budget, "more than its budget of 500"),
     ],
 )

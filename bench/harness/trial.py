@@ -257,6 +257,11 @@ def train_and_evaluate(
         # a copy: trials that share a spec's config in one process must not share its state
         config = copy.deepcopy(registry.config_of(spec))
         policy = algo.train(task, inputs, spec.budget, spec.seed, logger, config)
+        if not callable(policy):  # a plugin that forgot to return it, say
+            raise TypeError(
+                f"{spec.algorithm}'s train returned {type(policy).__name__}, not a policy (a"
+                " callable from a batch of observations to a batch of actions)"
+            )
         if tally.steps > spec.budget:  # it caught the budget's error and went on
             raise BudgetExceeded(
                 f"{spec.algorithm} took {tally.steps} env steps, more than its budget of"
