@@ -7,7 +7,7 @@ import dataclasses
 import numpy as np
 import pytest
 
-from bench.harness import registry
+from bench.harness import registry, trial_log
 from bench.harness.trial import plan, run_trial
 from bench.harness.types import TrialSpec
 
@@ -56,3 +56,44 @@ def test_a_policy_or_a_learner_that_breaks_the_rules_fails_its_trial(monkeypatch
     spec = TrialSpec("t", PENDULUM, "rule-breaker", 0, 0, 500, 2)
     result = run_trial(spec, plan(spec).inputs())
     assert result.status == "failed" and message in result.traceback, result.traceback
+
+
+def chatty(task, demos, budget, seed, logger, config):
+    env = task.make_env(seed)
+    env.reset(seed=seed)
+    for step in range(1, budget + 1):  # a scalar logged every env step
+        env.step(env.action_space.sample())
+        logger.log(step, reward=0.5, other=1.0)
+    return lambda obs: np.zeros((len(obs), task.act_dim), np.float32)
+
+
+def test_a_learner_that_logs_every_step_leaves_a_record_of_bounded_size(monkeypatch):
+    """Kept whole, a log call per env step of a long trial writes a record too large to read
+    back; past 2 x MAX_LOGGED calls every other one is kept, evenly over the trial."""
+    monkeypatch.setattr(registry, "_ALGORITHMS", dict(registry.all_algorithms()))
+    monkeypatch.setattr(trial_log, "MAX_LOGGED", 20)
+    registry.register("chatty", config=NoConfig, inputs="none")(chatty)
+    spec = TrialSpec("t", PENDULUM, "chatty", 0, 0, 500, 2)
+    result = run_trial(spec, plan(spec).inputs())
+    assert result.status == "ok", result.traceback
+    steps = result.logs["env_steps"]
+    assert 20 <= len(steps) < 40 and len(result.logs["reward"]) == len(steps)
+    assert steps[0] == 1 and len(set(np.diff(steps))) == 1 and steps[-1] > 500 - 32  # even
+
+
+def test_thinned_logs_go_on_alike_from_the_state_a_snapshot_keeps(monkeypatch):
+    monkeypatch.setattr(trial_log, "MAX_LOGGED", 5)
+    one_go, first = (trial_log.TrialLogger([], 0, 1) for _ in range(2))
+    for step in range(100):
+        one_go.log(step, x=step)
+        if step < 57:
+            first.log(step, x=step)
+    resumed = trial_log.TrialLogger([], 0, 1)  # what a snapshot's load sets
+    resumed.logs, resumed.log_calls, resumed.log_stride = (
+        first.logs,
+        first.log_calls,
+        first.log_stride,
+    )
+    for step in range(57, 100):
+        resumed.log(step, x=step)
+    assert resumed.logs == one_go.logs and len(one_go.logs["x"]) < 10

@@ -24,6 +24,11 @@ CURVE_EPISODES = 5
 """Episodes per learning-curve point; the final evaluation uses the suite's eval_episodes."""
 SNAPSHOT_FORMAT = 1
 """The layout of a trial's snapshot (`TrialSnapshots`); a snapshot of another is not resumed."""
+MAX_LOGGED = 10_000
+"""Log calls a record keeps, within a factor of two: past 2 x MAX_LOGGED, every other one is
+dropped and from then on every other call is kept, and so on (a learner that logs every env
+step would otherwise write a record too large to read back, and run again each time). A
+10M-step TRPO trial logs ~2,500 times."""
 
 
 class BudgetExceeded(RuntimeError):
@@ -66,6 +71,9 @@ class TrialLogger:
     curve: list[CurvePoint] = field(default_factory=list)
     logs: dict[str, list[float]] = field(default_factory=dict)
     _next: int = 0
+    log_calls: int = 0
+    """`log` calls so far; every `log_stride`-th is kept (`MAX_LOGGED`)."""
+    log_stride: int = 1
 
     events: Any = None
     """A TensorBoard SummaryWriter that gets every scalar as it is logged (None: records only)."""
@@ -81,11 +89,18 @@ class TrialLogger:
                 self.events.add_scalar("eval/return", self.curve[-1].mean_return, int(env_steps))
 
     def log(self, env_steps: int, **scalars: float) -> None:
+        if self.events is not None:  # TensorBoard streams every one
+            for k, v in scalars.items():
+                self.events.add_scalar(f"train/{k}", float(v), int(env_steps))
+        self.log_calls += 1
+        if (self.log_calls - 1) % self.log_stride:
+            return
         self.logs.setdefault("env_steps", []).append(float(env_steps))
         for k, v in scalars.items():
             self.logs.setdefault(k, []).append(float(v))
-            if self.events is not None:
-                self.events.add_scalar(f"train/{k}", float(v), int(env_steps))
+        if len(self.logs["env_steps"]) >= 2 * MAX_LOGGED:
+            self.logs = {k: v[::2] for k, v in self.logs.items()}
+            self.log_stride *= 2
 
 
 @dataclass
@@ -127,6 +142,8 @@ class TrialSnapshots:
             "curve": [[p.env_steps, p.mean_return] for p in self.logger.curve],
             "logs": self.logger.logs,
             "next_eval": self.logger._next,
+            "log_calls": self.logger.log_calls,
+            "log_stride": self.logger.log_stride,
             "spent_s": self.spent(),
             "cpu_s": self.cpu_spent(),
             "resumed_at": self.resumed_at,
@@ -146,6 +163,10 @@ class TrialSnapshots:
         self.logger.curve = [CurvePoint(int(s), float(r)) for s, r in trial["curve"]]
         self.logger.logs = trial["logs"]
         self.logger._next = trial["next_eval"]
+        # snapshots from before logs were thinned kept every call
+        kept = len(trial["logs"].get("env_steps", []))
+        self.logger.log_calls = trial.get("log_calls", kept)
+        self.logger.log_stride = trial.get("log_stride", 1)
         self.spent_before, self.started = trial["spent_s"], time.time()
         self.cpu_before, self.cpu_started = trial.get("cpu_s"), time.process_time()
         self.resumed_at = [*trial["resumed_at"], trial["env_steps"]]
