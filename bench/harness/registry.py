@@ -116,7 +116,8 @@ class Logger(Protocol):
         """Offer the current policy; the runner evaluates it when an eval is due."""
 
     def log(self, env_steps: int, **scalars: float) -> None:
-        """Record diagnostics (e.g. discriminator accuracy) at `env_steps`."""
+        """Record diagnostics (e.g. discriminator accuracy) at `env_steps`. A record keeps up
+        to ~10,000-20,000 calls, evenly thinned past that; TensorBoard gets every one."""
 
 
 def snapshots_of(logger: Logger) -> Snapshots | None:
