@@ -97,3 +97,10 @@ def test_thinned_logs_go_on_alike_from_the_state_a_snapshot_keeps(monkeypatch):
     for step in range(57, 100):
         resumed.log(step, x=step)
     assert resumed.logs == one_go.logs and len(one_go.logs["x"]) < 10
+
+
+@pytest.mark.parametrize("name", ["", "my method", "a/b", "-x", "név"])
+def test_a_name_a_suite_could_not_name_or_a_folder_not_hold_is_refused(monkeypatch, name):
+    monkeypatch.setattr(registry, "_ALGORITHMS", dict(registry.all_algorithms()))
+    with pytest.raises(ValueError, match="letters, digits and"):
+        registry.register(name, config=NoConfig, inputs="none")(wrong_shape)

@@ -38,6 +38,7 @@ from __future__ import annotations
 import dataclasses
 import hashlib
 import importlib.metadata
+import re
 import sys
 import warnings
 from collections.abc import Callable
@@ -199,6 +200,11 @@ _ALGORITHMS: dict[str, Algorithm] = {}
 _loaded = False
 
 
+NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.+-]*")
+"""What an algorithm's name may be: a suite's YAML names it, and TensorBoard's folders and
+the report's figures are named after it."""
+
+
 def register(
     name: str,
     *,
@@ -215,6 +221,11 @@ def register(
 ) -> Callable[[TrainFn], TrainFn]:
     """Decorator: register `train` under `name`, as a `role` of the optimizer `family`, shown
     as `label` (see `Algorithm`)."""
+    if not isinstance(name, str) or not NAME.fullmatch(name):
+        raise ValueError(
+            f"algorithm name {name!r}: letters, digits and . _ + - only, starting with a letter"
+            " or digit (suites name it, and folders and figures are named after it)"
+        )
     if inputs not in ("none", "states", "actions", "expert"):
         raise ValueError(f"inputs must be none|states|actions|expert, not {inputs!r}")
     if role not in ROLES:
