@@ -89,6 +89,7 @@ def test_a_video_has_a_panel_per_policy_and_a_frame_per_step(finished, tmp_path,
     [
         (["--algorithm", "gail"], "no gail with seed 0"),
         (["--demos", "7"], "no trials with 7 demos"),
+        (["--seed", "99"], "no learner's trial of seed 99"),  # not a film of the expert alone
         (["--env", "HopperBulletEnv-v0"], "no trials of HopperBulletEnv-v0"),
         (["--out", "v.png"], "must end in .gif or .mp4"),
         (["--steps", "100000", "--size", "400"], "GiB of frames in memory"),

@@ -83,7 +83,12 @@ def panels(
     n_demos = n_demos if n_demos is not None else (counts[-1] if counts else 0)
     if counts and n_demos not in counts:
         raise VideoError(f"no trials with {n_demos} demos on {env_id} (have: {counts})")
-    rows = rows[(rows["n_demos"].isin([0, n_demos])) & (rows["seed"] == seed)]
+    at_count = rows[rows["n_demos"].isin([0, n_demos])]
+    rows = at_count[at_count["seed"] == seed]
+    if rows.empty and not at_count.empty:  # only the expert would be filmed
+        have = sorted(at_count["seed"].unique())
+        seeds = ", ".join(map(str, have if len(have) <= 12 else [*have[:3], "...", have[-1]]))
+        raise VideoError(f"no learner's trial of seed {seed} on {env_id} (seeds: {seeds})")
     shown = Names.of(rows)
     names = shown.order(rows["algorithm"].unique())
     if algorithms:
