@@ -233,6 +233,7 @@ def test_experts_train_refuses_a_file_as_its_folder(tmp_path, bench_here):
         (["report", "{results}", "--out", "{file}"], "is a file, not a folder"),
         (["compare", "{results}", "{results}", "--reps", "-3"], "must be >= 1"),
         (["compare", "{results}", "{results}", "--alpha", "5"], "not a level between 0 and 1"),
+        (["compare", "{results}", "--between", "random", "random"], "random against itself"),
         (["demos", "export", PENDULUM, "{file}", "--references", "{results}"], "is a file"),
         (["experts", "train", PENDULUM, "--n-envs", "0"], "--n-envs: must be >= 1"),
         (["video", "{results}", "--out", "{file}.gif", "--steps", "0"], "--steps: must be >= 1"),

@@ -75,6 +75,8 @@ def _compare(args: argparse.Namespace) -> int:
     if args.between is not None:
         trials = _one_suite(args.run)
         a, b = (_algorithm_named(name, trials, args.run) for name in args.between)
+        if a == b:
+            raise BadInput(f"compare --between: {a} against itself; name two algorithms")
         df = normalize.normalize(trials)
         run_df, ref_df = comparisons.between(df, a, b)
         names = labels.Names.of(df)
