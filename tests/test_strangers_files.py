@@ -96,6 +96,15 @@ def test_a_snapshot_knows_its_trial(tmp_path):
         assert plan.read("bbbb") is None
 
 
+def test_a_damaged_snapshot_is_passed_over_and_its_trial_starts_afresh(tmp_path):
+    plan = SnapshotPlan.of(tmp_path)
+    plan.write("dddd", {"weights": torch.ones(2)}, 10, 100)
+    whole = plan.path("dddd").read_bytes()
+    plan.path("dddd").write_bytes(whole[: len(whole) // 2])  # cut off, as a full disk leaves it
+    with pytest.warns(UserWarning, match="does not load .*the trial starts afresh"):
+        assert plan.read("dddd") is None
+
+
 def test_a_folder_where_a_snapshot_goes_is_a_warning_not_a_failure(tmp_path):
     plan = SnapshotPlan.of(tmp_path)
     plan.path("cccc").mkdir(parents=True)

@@ -86,11 +86,20 @@ class SnapshotPlan:
 
     def read(self, trial_id: str) -> dict[str, Any] | None:
         """The trial's last snapshot, or None where it has none (or only one of another trial,
-        copied under its name: that one is set aside with a warning)."""
+        copied under its name, or one that does not load: those are passed over with a
+        warning, and the trial starts afresh)."""
         path = self.path(trial_id)
         if not path.is_file():
             return None
-        state = torch.load(path, map_location="cpu", weights_only=True)
+        try:
+            state = torch.load(path, map_location="cpu", weights_only=True)
+        except Exception as e:  # a damaged file, or a stranger's: never a trial that cannot run
+            reason = str(e).splitlines()[0] if str(e) else type(e).__name__
+            warnings.warn(
+                f"{path} does not load ({reason}): not resumed; the trial starts afresh",
+                stacklevel=2,
+            )
+            return None
         saved_for = state.pop(TRIAL_KEY, trial_id) if isinstance(state, dict) else None
         if saved_for != trial_id:
             warnings.warn(
