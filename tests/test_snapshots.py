@@ -121,7 +121,7 @@ def test_a_killed_then_paused_trial_resumes_and_ends_as_if_never_stopped(
         assert len(again.resumed_at) == (2 if again.trial_id in paused else 1)
         assert again.resumed_at == sorted(again.resumed_at)
         assert again.env_steps == one_go.env_steps == budget
-        assert 0 < again.cpu_time and 0 < one_go.cpu_time  # its runs' CPU seconds, summed
+        assert again.cpu_time > 0 and one_go.cpu_time > 0  # its runs' CPU seconds, summed
         assert again.returns == one_go.returns
         assert again.curve == one_go.curve
         assert untimed(again.logs) == untimed(one_go.logs)
