@@ -32,15 +32,17 @@ run: install
 	$(BIN)/bench compare $(RUN) $(REFERENCE)
 
 # pytest -n 2: most tests run in one process, so two workers keep both cores of a laptop busy.
+# --dist worksteal: each worker starts on half the tests in order (a module's tests, and its
+# module fixture, mostly on one worker), and one that runs out takes over the other's rest.
 test: install
 	$(BIN)/ruff check .
 	$(BIN)/ruff format --check .
 	NO_MKDOCS_2_WARNING=1 $(BIN)/mkdocs build --strict --quiet --site-dir build/site
-	$(BIN)/python -m pytest -q -n 2
+	$(BIN)/python -m pytest -q -n 2 --dist worksteal
 
 # While developing: everything but the tests marked slow (real training, whole suites), ~2 min.
 test-fast: install
-	$(BIN)/python -m pytest -q -n 2 -m "not slow"
+	$(BIN)/python -m pytest -q -n 2 --dist worksteal -m "not slow"
 
 docs: install
 	NO_MKDOCS_2_WARNING=1 $(BIN)/mkdocs serve
