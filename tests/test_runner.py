@@ -64,6 +64,7 @@ def test_killed_run_resumes_without_losing_or_duplicating(tmp_path, cli):
     out = cli("run", str(suite), "--results", str(results), "--jobs", "2")
     assert out.returncode == 0, out.stderr
     assert f"{len(before)} already finished" in out.stdout
+    assert "core-minutes of CPU" in out.stdout  # what the trials run this time took
     after = {p.name: p.read_bytes() for p in (results / "trials").glob("*.json")}
     assert len(after) == 8 and not list((results / "trials").glob("*.tmp"))
     assert all(after[name] == data for name, data in before.items())  # finished trials untouched
@@ -81,6 +82,8 @@ def test_dask_backend_matches_loky(tmp_path, on_dask):
     specs = list(load_suite(suite).trials)
     loky = run_suite(specs, tmp_path / "loky", jobs=2, progress=False)
     assert loky.done == len(specs) == 4
+    spent = [r.cpu_time for r in store.scan(tmp_path / "loky")]  # measured in each trial's fork
+    assert all(s > 0 for s in spent) and loky.cpu_s == pytest.approx(sum(spent))
     dask = on_dask(specs, tmp_path / "dask", workers=2)
     assert dask.done == 4
     a, b = frames.load(tmp_path / "loky"), frames.load(tmp_path / "dask")

@@ -114,9 +114,10 @@ def _say_what_ran(summary: RunSummary, results: Path) -> None:
             " reused)"
         )
     linked = f", {summary.linked} of them by other suites (linked)" if summary.linked else ""
+    cpu = f"; {_core_time(summary.cpu_s)} of CPU" if summary.cpu_s else ""
     print(
         f"{summary.done} trials done, {summary.failed} failed, "
-        f"{summary.skipped} already finished{linked} (records in {results}/trials)"
+        f"{summary.skipped} already finished{linked} (records in {results}/trials){cpu}"
     )
     if summary.paused:
         print(
@@ -314,3 +315,10 @@ def _add_backend(run: argparse.ArgumentParser) -> None:
         help="also write every trial's logged scalars there as TensorBoard events, live"
         " (tensorboard --logdir DIR)",
     )
+
+
+def _core_time(seconds: float) -> str:
+    """CPU seconds as core-hours, or core-minutes under an hour: "2.4 core-hours"."""
+    if seconds >= 3600:
+        return f"{seconds / 3600:.1f} core-hours"
+    return f"{seconds / 60:.1f} core-minutes"

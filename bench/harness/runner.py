@@ -54,6 +54,9 @@ class RunSummary:
     set_aside: int = 0
     """Records of these trials' cells made with other settings or another version of a
     plugin's code, moved out of the folder's trials (`store.superseded`)."""
+    cpu_s: float = 0.0
+    """CPU seconds of the trials this run recorded (runs before a resume included): the bill,
+    whatever else loaded the machine."""
 
 
 def link_finished(
@@ -215,6 +218,7 @@ def run_suite(
             paused=landing.paused,
             linked=linked,
             set_aside=len(stale),
+            cpu_s=landing.cpu_s,
         )
 
 
@@ -324,6 +328,7 @@ class _Landing:
         self.workers = workers
         self.unfinished = {spec.trial_id: spec for spec in todo}
         self.done = self.failed = self.paused = 0
+        self.cpu_s = 0.0
         self.bar = tqdm(
             total=len(todo), desc="trials", unit="trial", disable=not progress, dynamic_ncols=True
         )
@@ -337,6 +342,7 @@ class _Landing:
             if result.policy is not None:  # before the record: it implies its policy
                 policies.write(self.results_dir, result.trial_id, result.policy)
             store.write(self.results_dir, result)
+            self.cpu_s += result.cpu_time or 0.0
             if self.snapshot_plan is not None:  # a record (ok or failed) ends the trial
                 self.snapshot_plan.discard(result.trial_id)
             self.costs.finished(result)
