@@ -94,10 +94,9 @@ def write_report(
         desc=doing + "reading the records", bar_format=STAGE, disable=None, leave=False
     ) as bar:
         at = lambda stage: bar.set_description_str(doing + stage)  # noqa: E731
-        trials = frames.load(results_dir)
+        trials, curves = frames.load_with_curves(results_dir)
         if trials.empty:
             raise FileNotFoundError(f"{store.trials_dir(results_dir)}: no readable trial record")
-        curves = frames.load_curves(results_dir)
         at("statistics")
         found = findings.find(normalize(trials), curves, reps, focus)
         out_dir.mkdir(parents=True, exist_ok=True)

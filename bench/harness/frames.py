@@ -5,6 +5,7 @@ algorithm is (role, family, label), as the analysis reads them."""
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
 
@@ -40,8 +41,7 @@ LOG_COLUMNS = ["trial_id", *SPEC_COLUMNS, *ROLE_COLUMNS, "key", "index", "value"
 
 def load(results_dir: str | Path) -> pd.DataFrame:
     """One row per trial: TRIAL_COLUMNS; `return` is the mean evaluation return (NaN if failed)."""
-    rows = [_trial_row(r) for r in scan(results_dir)]
-    return _frame(rows, TRIAL_COLUMNS, ["env_id", "algorithm", "n_demos", "seed", "trial_id"])
+    return _trials(scan(results_dir))
 
 
 def load_curves(results_dir: str | Path) -> pd.DataFrame:
@@ -50,9 +50,25 @@ def load_curves(results_dir: str | Path) -> pd.DataFrame:
     Failed trials are left out: their curves stop early, and mixing them in
     would change the number of seeds behind each point along the curve.
     """
+    return _curves(scan(results_dir))
+
+
+def load_with_curves(results_dir: str | Path) -> tuple[pd.DataFrame, pd.DataFrame]:
+    """`load` and `load_curves` from one reading of the records (a report needs both, and
+    reading a large folder's records is most of what it costs before its statistics)."""
+    records = list(scan(results_dir))
+    return _trials(records), _curves(records)
+
+
+def _trials(records: Iterable[TrialResult]) -> pd.DataFrame:
+    rows = [_trial_row(r) for r in records]
+    return _frame(rows, TRIAL_COLUMNS, ["env_id", "algorithm", "n_demos", "seed", "trial_id"])
+
+
+def _curves(records: Iterable[TrialResult]) -> pd.DataFrame:
     rows = [
         {**_spec_row(r), "inputs": r.inputs, "env_steps": p.env_steps, "return": p.mean_return}
-        for r in scan(results_dir)
+        for r in records
         if r.status == "ok"
         for p in r.curve
     ]
