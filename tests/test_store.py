@@ -5,7 +5,9 @@ from __future__ import annotations
 import json
 import math
 import os
+import shutil
 import time
+import warnings
 
 import numpy as np
 import pytest
@@ -295,3 +297,20 @@ def test_files_are_written_with_the_users_umask(tmp_path, umask, mode):
     finally:
         os.umask(before)
     assert path.stat().st_mode & 0o777 == mode
+
+
+def test_links_a_copy_broke_are_one_warning_for_all_of_them(tmp_path):
+    """A folder copied without the folder its links point into: every link is broken, and a
+    warning apiece would bury the report; one says how many, and the rest reads as before."""
+    theirs, mine = tmp_path / "theirs", tmp_path / "mine"
+    for seed in range(3):
+        r = result(spec(seed=seed))
+        store.link(mine, r.spec, "GAIfO", store.write(theirs, r))
+    kept = result(spec(seed=9))
+    store.write(mine, kept)
+    shutil.rmtree(theirs)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        assert [r.trial_id for r in store.scan(mine)] == [kept.trial_id]
+    said = [str(w.message) for w in caught]
+    assert len(said) == 1 and "skipping 3 records" in said[0] and "not there" in said[0], said

@@ -47,6 +47,11 @@ LOCK = ".lock"
 """A results folder's lock file: held (flock) by the one `bench run` writing into it."""
 
 
+class BrokenLink(ValueError):
+    """A record that says it is another folder's, where that one is not (a folder copied or
+    moved without the folders it links to)."""
+
+
 class FolderBusy(BadInput, RuntimeError):
     """A results folder that cannot be written now; the message is one line."""
 
@@ -185,6 +190,8 @@ def read(path: str | Path) -> TrialResult:
     raw = _json(path)
     if LINK in raw:
         target = Path(os.path.normpath(Path(path).parent / raw[LINK]))
+        if not target.exists():
+            raise BrokenLink(f"{path} links to {target}, which is not there")
         if LINK in _json(target):
             raise ValueError(f"{path} links to {target}, itself a link")
         result = read(target)
@@ -352,9 +359,13 @@ def scan(results_dir: str | Path) -> Iterator[TrialResult]:
     if not folder.is_dir():
         return
     _remove_stale_tmp(folder)
+    broken: list[BrokenLink] = []
     for path in sorted(folder.glob("*.json")):
         try:
             result = read(path)
+        except BrokenLink as e:  # said once for all of them, below: a copy breaks them all
+            broken.append(e)
+            continue
         except (OSError, ValueError, KeyError, TypeError) as e:  # JSONDecodeError is a ValueError
             warnings.warn(f"skipping unreadable trial record {path}: {e!r}", stacklevel=2)
             continue
@@ -367,6 +378,12 @@ def scan(results_dir: str | Path) -> Iterator[TrialResult]:
             )
             continue
         yield result
+    if broken:
+        warnings.warn(
+            f"skipping {len(broken)} records of {folder} that link to another folder's, not"
+            f" there (copied or moved without it?), e.g. {broken[0]}",
+            stacklevel=2,
+        )
 
 
 def status_of(r: TrialResult) -> str:
