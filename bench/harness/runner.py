@@ -209,17 +209,7 @@ def run_suite(
                     trial_timeout=trial_timeout,
                 )
                 _run_all(todo, jobs, dispatch, landing)
-        left = len(todo) - landing.done - landing.failed - landing.paused
-        return RunSummary(
-            landing.done,
-            landing.failed,
-            skipped,
-            left=left,
-            paused=landing.paused,
-            linked=linked,
-            set_aside=len(stale),
-            cpu_s=landing.cpu_s,
-        )
+        return landing.summary(skipped, linked=linked, set_aside=len(stale))
 
 
 def _snapshot_plan(
@@ -359,6 +349,20 @@ class _Landing:
         counts = {"done": self.done, "failed": self.failed}
         self.bar.set_postfix(
             **counts, **({"paused": self.paused} if self.paused else {}), left=left
+        )
+
+    def summary(self, skipped: int, linked: int, set_aside: int) -> RunSummary:
+        """What the run did, once every trial has landed (or been left for later)."""
+        left = len(self.unfinished)  # never started, under a time limit
+        return RunSummary(
+            self.done,
+            self.failed,
+            skipped,
+            left=left,
+            paused=self.paused,
+            linked=linked,
+            set_aside=set_aside,
+            cpu_s=self.cpu_s,
         )
 
     def say(self, line: str) -> None:
