@@ -109,7 +109,7 @@ def _trial_row(r: TrialResult) -> dict[str, Any]:
         "env_steps": r.env_steps,
         "wall_time": r.wall_time,
         "cpu_time": math.nan if r.cpu_time is None else r.cpu_time,
-        "failure": None if ok else failure(r.traceback),
+        "failure": None if ok or r.raised is None else r.raised[:FAILURE_CHARS],
         "state_distance": math.nan
         if r.state_distance is None or not ok
         else float(r.state_distance),
@@ -118,13 +118,8 @@ def _trial_row(r: TrialResult) -> dict[str, Any]:
 
 
 FAILURE_CHARS = 200
-"""The most of a failure's line a frame keeps (the whole traceback is in the record)."""
-
-
-def failure(traceback: str | None) -> str | None:
-    """What a failed trial's traceback ends with: its exception and message, on one line."""
-    lines = (traceback or "").strip().splitlines()
-    return lines[-1][:FAILURE_CHARS] if lines else None
+"""The most of what a failed trial raised (`TrialResult.raised`) a frame keeps (the whole
+traceback is in the record)."""
 
 
 def software(versions: dict[str, str]) -> str:

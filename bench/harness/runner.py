@@ -340,9 +340,8 @@ class _Landing:
             self.done += 1
         elif result.status == "failed":
             self.failed += 1
-            last = (result.traceback or "").strip().splitlines()[-1:] or ["?"]
             spec = result.spec
-            self.say(f"failed: {spec.env_id} {spec.shown} seed {spec.seed}: {last[0]}")
+            self.say(f"failed: {spec.env_id} {spec.shown} seed {spec.seed}: {result.raised or '?'}")
         self.bar.update(1)
         # "left" counts the trials in flight in full: an upper bound.
         left = self.costs.time_left(self.unfinished.values(), self.workers)

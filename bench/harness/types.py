@@ -173,3 +173,10 @@ class TrialResult:
     @property
     def trial_id(self) -> str:
         return self.spec.trial_id
+
+    @property
+    def raised(self) -> str | None:
+        """What a failed trial raised: its traceback's last line (exception and message), or
+        None where there is no traceback."""
+        lines = (self.traceback or "").strip().splitlines()
+        return lines[-1] if lines else None

@@ -53,8 +53,7 @@ def verify(record: TrialResult, steps: int = PREFIX_STEPS) -> Verdict:
     spec = record.spec if whole else dataclasses.replace(record.spec, budget=steps)
     rerun = run_trial(spec, plan(spec).inputs())
     if rerun.status != "ok":
-        last = (rerun.traceback or "").strip().splitlines()[-1:] or ["?"]
-        return Verdict(record, False, f"the rerun failed: {last[0]}")
+        return Verdict(record, False, f"the rerun failed: {rerun.raised or '?'}")
     if whole:
         again = _series(rerun)
         parts = [
