@@ -28,8 +28,6 @@ def read_bytes(path: str | Path, limit: int, what: str = "file") -> bytes:
         fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK)
     except FileNotFoundError:
         raise UnreadableFile(f"{path}: no such {what}") from None
-    except IsADirectoryError:
-        raise UnreadableFile(f"{path}: a folder, not a {what}") from None
     except OSError as e:
         raise UnreadableFile(f"{path}: cannot read this {what}: {e.strerror}") from None
     kind = os.fstat(fd).st_mode
