@@ -37,8 +37,6 @@ METRICS: dict[str, Callable[[np.ndarray], float]] = {
 }
 """The aggregates of every score table, in the order the report's columns show them."""
 
-AGGREGATE_COLUMNS = ["algorithm", "metric", "estimate", "lo", "hi"]
-
 METRICS_OVER: dict[str, Callable[[np.ndarray], np.ndarray]] = {
     "mean": aggregate_mean_over,
     "median": aggregate_median_over,
@@ -113,12 +111,15 @@ def score_dict(
     return scores
 
 
+AGGREGATE_COLUMNS = ["algorithm", "metric", "estimate", "lo", "hi"]
+
+
 def aggregate_scores(
     scores: dict[str, np.ndarray], reps: int = 2000, seed: int = 0
 ) -> pd.DataFrame:
     """Mean, median and IQM per algorithm with 95% CIs: algorithm, metric, estimate, lo, hi."""
 
-    @over_resamples(lambda stack: np.stack([f(stack) for f in METRICS_OVER.values()], axis=1))
+    @over_resamples(lambda stack: np.stack([METRICS_OVER[m](stack) for m in METRICS], axis=1))
     def aggregate(x: np.ndarray) -> np.ndarray:
         return np.array([f(x) for f in METRICS.values()])
 
@@ -135,7 +136,7 @@ def aggregate_scores(
             for name in scores
             for i, metric in enumerate(METRICS)
         ],
-        columns=AGGREGATE_COLUMNS,  # kept where no learner has a score, and no row is made
+        columns=AGGREGATE_COLUMNS,  # where no learner has a score: no row, the columns still
     )
 
 
