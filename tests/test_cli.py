@@ -222,6 +222,7 @@ def test_experts_train_refuses_a_file_as_its_folder(tmp_path, bench_here):
         (["run", "{suite}", "--jobs", "0"], "--jobs: must be >= 1, or -1"),
         (["run", "{suite}", "--time-limit", "90"], "not a duration like 90m"),
         (["run", "{suite}", "--time-limit", "0h"], "must be longer than 0"),
+        (["run", "{suite}", "--no-pause"], "--no-pause says which trials to start before a"),
         (["run", "{suite}", "--results", "{file}"], "is a file, not a folder"),
         (["run", "{suite}", "--results", "{file}/under"], "is a file, not a folder"),
         (["plot", "{results}", "--out", "{file}/figure.png"], "is a file, not a folder"),

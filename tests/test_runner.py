@@ -353,6 +353,27 @@ def test_once_none_fits_a_time_limit_starts_trials_that_can_pause_while_worth_it
     # Without snapshots nothing can pause: only what fits starts.
     now[0] = 10.0
     assert [job[1][0] for job in _jobs([dear, cheap], costs, limit=limit)] == [cheap]
+    # Nor where pausing is off (`--no-pause`: a disk that does not outlive the run).
+    no_pause = dataclasses.replace(limit, pause=False)
+    assert [
+        job[1][0] for job in _jobs([dear, cheap], costs, limit=no_pause, snapshot_plan=plan)
+    ] == [cheap]
+
+
+def test_a_time_limit_fits_trials_at_this_runs_pace():
+    """Prices are CPU seconds; a core shared with other work takes longer on the clock. Once
+    this run's first trial took twice its price, a trial priced at 30 s of the 40 s left no
+    longer fits (60 s at that pace), and one priced at 20 s still does."""
+    spec = TrialSpec("t", PENDULUM, "survival", 1, 0, 1000, 1)
+    costs = CostModel.of([finished(dataclasses.replace(spec, seed=s), 10.0) for s in (7, 8, 9)])
+    priced_30, priced_20 = (
+        dataclasses.replace(spec, seed=s, budget=b) for s, b in ((1, 3000), (2, 2000))
+    )
+    limit = TimeLimit.starting_now(40.0, clock=lambda: 0.0)
+    assert next(_jobs([priced_30], costs, limit=limit))[1][0] == priced_30
+    costs.finished(finished(dataclasses.replace(spec, seed=3), 20.0))  # priced 10 s: took 20
+    assert costs.pace_factor() == pytest.approx(2.0)
+    assert [job[1][0] for job in _jobs([priced_30, priced_20], costs, limit=limit)] == [priced_20]
 
 
 @pytest.mark.slow
@@ -379,6 +400,11 @@ def test_time_limit_leaves_the_trials_that_would_not_fit(tmp_path, cli):
     # none unpriced.
     assert "left=~30 min]" in out.stderr.replace("\r", "\n").splitlines()[-1]
     assert "1 of 2 trials pending" in cli(*run, "--estimate").stdout
+    # With 10 min left the survival trial would start and pause at the limit; not under
+    # --no-pause, where its snapshot would not outlive the run.
+    out = cli(*run, "--time-limit", "10m", "--no-pause")
+    assert "0 trials done" in out.stdout and "1 trials not started" in out.stdout, out.stdout
+    assert not (results / "limited" / ".partial").exists()
 
 
 def test_time_left_is_the_expected_seconds_over_the_workers():

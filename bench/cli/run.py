@@ -21,6 +21,8 @@ if TYPE_CHECKING:
 def _run(args: argparse.Namespace) -> int:
     from bench.harness.suite import load_suite, select
 
+    if args.no_pause and args.time_limit is None:
+        raise BadInput("--no-pause says which trials to start before a --time-limit: give one")
     suite = load_suite(args.suite)
     if suite.kernels == "portable" and not args.estimate:
         restarted = _with_portable_kernels(args)
@@ -51,7 +53,9 @@ def _run(args: argparse.Namespace) -> int:
     with store.claim(results):
         print(f"suite {suite.name}: {len(specs)} trials -> {results}/", file=sys.stderr)
         # Priced as --estimate prices them; a time limit counts from now on.
-        limit = None if args.time_limit is None else TimeLimit.starting_now(args.time_limit)
+        limit = None
+        if args.time_limit is not None:
+            limit = TimeLimit.starting_now(args.time_limit, pause=not args.no_pause)
         summary = run_suite(
             specs,
             results,
@@ -278,6 +282,13 @@ def _add_run_control(run: argparse.ArgumentParser) -> None:
         " (every built-in algorithm's); at the limit, those in flight save a snapshot and stop,"
         " to resume next run; one that has not stopped a minute later is stopped and left"
         " pending",
+    )
+    run.add_argument(
+        "--no-pause",
+        action="store_true",
+        help="with --time-limit: start only the trials expected to finish by then, none to"
+        " pause at the limit (where the disk does not outlive the run, a paused trial's"
+        " snapshot is lost with it)",
     )
     run.add_argument(
         "--trial-timeout",

@@ -252,6 +252,13 @@ class CostModel:
         price = self.price(spec)[0]
         return None if price is None else price * (1 - self.done_before.get(spec.trial_id, 0.0))
 
+    def wall_seconds(self, spec: TrialSpec) -> float | None:
+        """`seconds` at this run's pace: what `spec` should take on the clock here, where a
+        price in CPU seconds says what it costs a core (a core shared with other work, or a
+        slower machine, takes longer; `pace_factor`)."""
+        seconds = self.seconds(spec)
+        return None if seconds is None else seconds * self.pace_factor()
+
     def priority(self, spec: TrialSpec) -> tuple[bool, int, float]:
         """Higher runs sooner: trials resuming from a snapshot first (finish work begun before
         starting new work), then unpriced kinds (by budget, to learn their cost), then by
@@ -328,6 +335,10 @@ class TimeLimit:
     clock: Callable[[], float] = time.monotonic
     pause_floor_s: float = PAUSE_FLOOR_S
     """The least time left for which a trial that will not finish is still started."""
+    pause: bool = True
+    """Whether trials that will not finish are started at all, to pause at the deadline. Not
+    where the disk does not outlive the run (a machine wiped at the end of its lease): their
+    snapshots would be lost with it, and all they did."""
 
     @classmethod
     def starting_now(
@@ -335,8 +346,9 @@ class TimeLimit:
         limit: float,
         clock: Callable[[], float] = time.monotonic,
         pause_floor_s: float = PAUSE_FLOOR_S,
+        pause: bool = True,
     ) -> TimeLimit:
-        return cls(clock() + limit, clock, pause_floor_s)
+        return cls(clock() + limit, clock, pause_floor_s, pause)
 
     def fits(self, expected: float | None) -> bool:
         return expected is not None and self.clock() + expected <= self.deadline
@@ -348,7 +360,7 @@ class TimeLimit:
     def worth_pausing(self) -> bool:
         """Whether a trial that will not finish is still worth starting, to pause at the
         deadline."""
-        return self.left() >= self.pause_floor_s
+        return self.pause and self.left() >= self.pause_floor_s
 
     def wall_deadline(self) -> float:
         """The deadline as a `time.time()`, which workers in other processes can read."""

@@ -99,9 +99,10 @@ def _jobs(
     then those of the algorithms `first` (names or labels), then the others; within each
     group, trials resuming from a snapshot first, then kinds with nothing to go by (to learn
     their cost), then the dearest, so the last to finish are short. Under a time `limit`,
-    those that still fit as each starts, the dearest first (never an unpriced one); once none
-    does, those that can pause at the limit (`registry.Algorithm.resumable`, with a
-    `snapshot_plan`) while that is worth it (`TimeLimit.worth_pausing`); then none."""
+    those that still fit as each starts, at this run's pace (`CostModel.wall_seconds`), the
+    dearest first (never an unpriced one); once none does, those that can pause at the limit
+    (`registry.Algorithm.resumable`, with a `snapshot_plan`) while that is worth it
+    (`TimeLimit.worth_pausing`); then none."""
 
     first = set(first)
 
@@ -117,7 +118,7 @@ def _jobs(
         if limit is None:
             startable = remaining
         else:
-            startable = [s for s in remaining if limit.fits(costs.seconds(s))]
+            startable = [s for s in remaining if limit.fits(costs.wall_seconds(s))]
             if not startable and limit.worth_pausing():
                 startable = [s for s in remaining if pausable(s)]
         if not startable:
