@@ -435,6 +435,22 @@ def test_time_left_corrects_itself_by_this_runs_pace():
     assert costs.time_left(todo, workers=1) == "~3.0 h"
 
 
+def test_a_price_from_wall_times_does_not_set_the_pace_of_a_cpu_timed_trial():
+    """Wall times made on a loaded machine price a trial high; one that took less on the clock
+    says nothing of this machine's pace until its kind is priced by CPU time."""
+
+    def spec(seed: int) -> TrialSpec:
+        return TrialSpec("t", PENDULUM, "oracle", 0, seed, 1000, 1)
+
+    costs = CostModel.of([finished(spec(0), 1800.0)])  # wall time, on a shared core
+    timed = dataclasses.replace(finished(spec(1), 1200.0), cpu_time=1100.0)
+    costs.finished(timed)
+    assert costs.pace_factor() == 1.0
+    # Priced by its CPU time from now on (1,100 s): the next such trial sets the pace.
+    costs.finished(dataclasses.replace(finished(spec(2), 1650.0), cpu_time=1100.0))
+    assert costs.pace_factor() == pytest.approx(1.5)
+
+
 @pytest.mark.slow
 def test_two_variants_of_one_algorithm_run_and_plot_side_by_side(tmp_path, cli):
     suite = write_suite(

@@ -145,11 +145,18 @@ class CostModel:
 
     def finished(self, record: TrialResult) -> None:
         """Learn from a record this run has just written: what it took against what it was
-        expected to take (`pace`), then its cost (`observe`)."""
-        expected = self.seconds(record.spec)
+        expected to take (`pace`), then its cost (`observe`). Only a price that rests on
+        records of its own kind, measured as this one is, sets the pace: a CPU-timed trial
+        against a price from wall times made on a loaded machine would say this machine is
+        fast where that price is merely high (a 10M PyBullet oracle priced at 77 min, its
+        records' wall time, took 52 min; a pace of 0.67 then made a 50-min trial fit in 36)."""
+        spec = record.spec
+        expected = self.seconds(spec)
         trained = record.status == "ok" and record.env_steps > 0 and not record.resumed_at
-        if trained and expected:
-            with self.lock:
+        with self.lock:
+            tally = self.done.get((observed(spec), spec.env_id, priced_as(spec)))
+            alike = tally is not None and bool(tally.cpu_rates) == (record.cpu_time is not None)
+            if trained and expected and alike:
                 self.pace.append((expected, record.wall_time))
         self.observe(record)
 
