@@ -74,6 +74,11 @@ class Tally:
             (self.cpu_fixed if cpu else self.fixed).append(seconds)
         self._medians = None
 
+    @property
+    def cpu_priced(self) -> bool:
+        """Whether a trained trial's price rests on CPU seconds (`_priced`)."""
+        return bool(self.cpu_rates)
+
     def _priced(self) -> tuple[list[float], list[float]]:
         """The rates and fixed times that price: CPU-measured ones where there are any."""
         return self.cpu_rates or self.rates, self.cpu_fixed or self.fixed
@@ -155,7 +160,7 @@ class CostModel:
         trained = record.status == "ok" and record.env_steps > 0 and not record.resumed_at
         with self.lock:
             tally = self.done.get((observed(spec), spec.env_id, priced_as(spec)))
-            alike = tally is not None and bool(tally.cpu_rates) == (record.cpu_time is not None)
+            alike = tally is not None and tally.cpu_priced == (record.cpu_time is not None)
             if trained and expected and alike:
                 self.pace.append((expected, record.wall_time))
         self.observe(record)
