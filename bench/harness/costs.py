@@ -36,6 +36,12 @@ def priced_as(spec: TrialSpec) -> str:
     return spec.label or spec.algorithm
 
 
+def tally_key(spec: TrialSpec) -> tuple[str | None, str, str]:
+    """Under which key `CostModel.done` keeps a trial's records: how it sees its env, the env,
+    and the name it is priced under."""
+    return observed(spec), spec.env_id, priced_as(spec)
+
+
 @dataclass
 class Tally:
     """What the finished trials of one kind say about the cost of a like trial: the median
@@ -142,8 +148,7 @@ class CostModel:
         if record.status == "ok" and record.spec.budget > 0:
             spec = record.spec
             with self.lock:
-                key = (observed(spec), spec.env_id, priced_as(spec))
-                tally = self.done.setdefault(key, Tally())
+                tally = self.done.setdefault(tally_key(spec), Tally())
                 measured = record.cpu_time is not None
                 seconds = record.cpu_time if measured else record.wall_time
                 tally.add(seconds, spec.budget, trained=record.env_steps > 0, cpu=measured)
@@ -159,7 +164,7 @@ class CostModel:
         expected = self.seconds(spec)
         trained = record.status == "ok" and record.env_steps > 0 and not record.resumed_at
         with self.lock:
-            tally = self.done.get((observed(spec), spec.env_id, priced_as(spec)))
+            tally = self.done.get(tally_key(spec))
             alike = tally is not None and tally.cpu_priced == (record.cpu_time is not None)
             if trained and expected and alike:
                 self.pace.append((expected, record.wall_time))
