@@ -41,6 +41,17 @@ def test_iqm_difference_of_identical_and_shifted_samples():
     assert shifted["diff"] == pytest.approx(-0.5) and shifted["diff_hi"] < 0
 
 
+def test_improvement_counts_wins_and_half_ties_by_hand():
+    # x = [1, 2, 3] against y = [2, 0]: of 6 pairs 1 > 0, 2 > 0, 3 > 2, 3 > 0 win, 2 = 2 ties
+    found = agreement.improvement(np.array([1.0, 2.0, 3.0]), np.array([2.0, 0.0]), reps=500)
+    assert found["better"] == pytest.approx(4.5 / 6)
+    assert found["better_lo"] <= found["better"] <= found["better_hi"]
+    apart = agreement.improvement(np.array([2.0, 3.0]), np.array([0.0, 1.0]), reps=500)
+    assert (apart["better"], apart["better_lo"], apart["better_hi"]) == (1.0, 1.0, 1.0)
+    scores = np.array([0.2, 0.5, 0.9])
+    assert agreement.improvement(scores, scores.copy(), reps=500)["better"] == 0.5
+
+
 def test_identical_folders_agree(tmp_path, cli):
     run = tmp_path / "run"
     copy_folder(REFERENCE, run)

@@ -2,7 +2,8 @@
 
 A cell is one env, algorithm, demonstration count and setting (`COMPARE_KEYS`); in each, the
 seeds of one side are set against the seeds of the other: each side's IQM with a 95%
-bootstrap CI, the CI of their difference, and a rank test by permutation whose p gives the
+bootstrap CI, the CI of their difference, P(run > ref) (rliable's probability of improvement:
+one run of this side beats one of the other) with its CI, and a rank test by permutation whose p gives the
 verdict (identical, differs or agrees). Pure functions over normalized frames; the table is
 `bench.analysis.tables.compare_table`'s.
 """
@@ -17,7 +18,7 @@ import numpy as np
 import pandas as pd
 import scipy.stats
 
-from bench.analysis.bootstrap import iqm
+from bench.analysis.bootstrap import interval, iqm, probability_of_improvement_over
 from bench.errors import BadInput
 
 
@@ -32,7 +33,7 @@ COMPARE_COLUMNS = [
     *COMPARE_KEYS,
     *("run_seeds", "run_iqm", "run_lo", "run_hi"),
     *("ref_seeds", "ref_iqm", "ref_lo", "ref_hi"),
-    *("diff", "diff_lo", "diff_hi", "p", "verdict"),
+    *("diff", "diff_lo", "diff_hi", "better", "better_lo", "better_hi", "p", "verdict"),
 ]
 ALPHA = 0.01
 """A row differs when the permutation test's p is below this. Over fresh draws of both sides
@@ -145,6 +146,22 @@ def iqm_difference(
     }
 
 
+def improvement(
+    run: np.ndarray, ref: np.ndarray, reps: int = 2000, seed: int = 0
+) -> dict[str, float]:
+    """P(run > ref): the chance that a run of one sample beats a run of the other, ties
+    counting half (rliable's probability of improvement on one task), with its 95%
+    percentile-bootstrap CI (each sample resampled on its own)."""
+    x = np.asarray(run, dtype=float)[:, None]  # runs x one task
+    y = np.asarray(ref, dtype=float)[:, None]
+    lo, hi = interval(probability_of_improvement_over, (x, y), reps, np.random.RandomState(seed))
+    return {
+        "better": float(probability_of_improvement_over(x, y)),
+        "better_lo": float(lo[0]),
+        "better_hi": float(hi[0]),
+    }
+
+
 def by_seed(frame: pd.DataFrame) -> dict[tuple, pd.Series]:
     """A normalized frame's scores by seed, per compared cell (COMPARE_KEYS)."""
     return {
@@ -161,7 +178,7 @@ def compare(
     alpha: float = ALPHA,
 ) -> pd.DataFrame:
     """Per env, algorithm and demo count present in both normalized frames: each one's IQM over
-    seeds with a 95% CI, the difference's CI, the permutation test's p (`permutation_p`) and
+    seeds with a 95% CI, the difference's CI, P(run > ref) with its CI (`improvement`), the permutation test's p (`permutation_p`) and
     a verdict (`verdict_of` at `alpha`). Columns: COMPARE_COLUMNS. Raises ComparisonError when no cell is
     in both."""
     run_cells, ref_cells = by_seed(run), by_seed(ref)
@@ -185,6 +202,7 @@ def compare(
                 "run_seeds": len(a),
                 "ref_seeds": len(b),
                 **d,
+                **improvement(a, b, reps, seed + i),
                 "p": p,
                 "verdict": verdict,
             }

@@ -58,10 +58,10 @@ def compare_table(
     alpha: float = ALPHA,
 ) -> str:
     """Markdown: per env, algorithm and demo count, IQM [95% CI] of the run and the reference,
-    their difference and the verdict (agreement.compare at `alpha`); then how many rows
+    their difference, P(run > ref) and the verdict (agreement.compare at `alpha`); then how many rows
     agree."""
     header = ["env", "algorithm", "demos", f"run ({run})", f"reference ({reference})"]
-    header += ["run - ref [95% CI]", "verdict"]
+    header += ["run - ref [95% CI]", "P(run > ref) [95% CI]", "verdict"]
     envs, algorithms = (
         labels.env_order(comparison["env_id"]),
         names.in_order(comparison["algorithm"]),
@@ -82,6 +82,7 @@ def compare_table(
             interval(r["run_iqm"], r["run_lo"], r["run_hi"]) + f" ({r['run_seeds']})",
             interval(r["ref_iqm"], r["ref_lo"], r["ref_hi"]) + f" ({r['ref_seeds']})",
             interval(r["diff"], r["diff_lo"], r["diff_hi"]),
+            interval(r["better"], r["better_lo"], r["better_hi"]),
             "**differs**" if r["verdict"] == "differs" else r["verdict"],
         ]
         for _, r in ordered.iterrows()
