@@ -2,9 +2,9 @@
 
 A cell is one env, algorithm, demonstration count and setting (`COMPARE_KEYS`); in each, the
 seeds of one side are set against the seeds of the other: each side's IQM with a 95%
-bootstrap CI, the CI of their difference, P(run > ref) (rliable's probability of improvement:
-one run of this side beats one of the other) with its CI, and a rank test by permutation whose p gives the
-verdict (identical, differs or agrees). Pure functions over normalized frames; the table is
+bootstrap CI, the CI of their difference, P(run > ref) (the report's probability of
+improvement: one run of this side beats one of the other) with its CI, and a rank test by
+permutation whose p gives the verdict (identical, differs or agrees). Pure functions over normalized frames; the table is
 `bench.analysis.tables.compare_table`'s.
 """
 
@@ -18,7 +18,8 @@ import numpy as np
 import pandas as pd
 import scipy.stats
 
-from bench.analysis.bootstrap import interval, iqm, probability_of_improvement_over
+from bench.analysis.bootstrap import iqm
+from bench.analysis.stats import improvement_of_pairs
 from bench.errors import BadInput
 
 
@@ -150,16 +151,14 @@ def improvement(
     run: np.ndarray, ref: np.ndarray, reps: int = 2000, seed: int = 0
 ) -> dict[str, float]:
     """P(run > ref): the chance that a run of one sample beats a run of the other, ties
-    counting half (rliable's probability of improvement on one task), with its 95%
-    percentile-bootstrap CI (each sample resampled on its own)."""
-    x = np.asarray(run, dtype=float)[:, None]  # runs x one task
-    y = np.asarray(ref, dtype=float)[:, None]
-    lo, hi = interval(probability_of_improvement_over, (x, y), reps, np.random.RandomState(seed))
-    return {
-        "better": float(probability_of_improvement_over(x, y)),
-        "better_lo": float(lo[0]),
-        "better_hi": float(hi[0]),
+    counting half, with its 95% CI: the report's `stats.improvement_of_pairs` on one task
+    (no interval where a side holds one run)."""
+    scores = {
+        "run": np.asarray(run, dtype=float)[:, None],
+        "ref": np.asarray(ref, dtype=float)[:, None],
     }
+    found = improvement_of_pairs(scores, [("run", "ref")], reps, seed).iloc[0]
+    return {"better": found["estimate"], "better_lo": found["lo"], "better_hi": found["hi"]}
 
 
 def by_seed(frame: pd.DataFrame) -> dict[tuple, pd.Series]:
@@ -178,9 +177,9 @@ def compare(
     alpha: float = ALPHA,
 ) -> pd.DataFrame:
     """Per env, algorithm and demo count present in both normalized frames: each one's IQM over
-    seeds with a 95% CI, the difference's CI, P(run > ref) with its CI (`improvement`), the permutation test's p (`permutation_p`) and
-    a verdict (`verdict_of` at `alpha`). Columns: COMPARE_COLUMNS. Raises ComparisonError when no cell is
-    in both."""
+    seeds with a 95% CI, the difference's CI, P(run > ref) with its CI (`improvement`), the
+    permutation test's p (`permutation_p`) and a verdict (`verdict_of` at `alpha`). Columns:
+    COMPARE_COLUMNS. Raises ComparisonError when no cell is in both."""
     run_cells, ref_cells = by_seed(run), by_seed(ref)
     shared = [
         k for k in sorted(run_cells) if k in ref_cells and len(run_cells[k]) and len(ref_cells[k])

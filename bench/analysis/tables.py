@@ -58,8 +58,8 @@ def compare_table(
     alpha: float = ALPHA,
 ) -> str:
     """Markdown: per env, algorithm and demo count, IQM [95% CI] of the run and the reference,
-    their difference, P(run > ref) and the verdict (agreement.compare at `alpha`); then how many rows
-    agree."""
+    their difference, P(run > ref) and the verdict (agreement.compare at `alpha`); then how
+    many rows agree."""
     header = ["env", "algorithm", "demos", f"run ({run})", f"reference ({reference})"]
     header += ["run - ref [95% CI]", "P(run > ref) [95% CI]", "verdict"]
     envs, algorithms = (
