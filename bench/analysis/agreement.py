@@ -4,8 +4,8 @@ A cell is one env, algorithm, demonstration count and setting (`COMPARE_KEYS`); 
 seeds of one side are set against the seeds of the other: each side's IQM with a 95%
 bootstrap CI, the CI of their difference, P(run > ref) (the report's probability of
 improvement: one run of this side beats one of the other) with its CI, and a rank test by
-permutation whose p gives the verdict (identical, differs or agrees). Pure functions over normalized frames; the table is
-`bench.analysis.tables.compare_table`'s.
+permutation whose p gives the verdict (identical, differs or agrees). Pure functions over
+normalized frames; the table is `bench.analysis.tables.compare_table`'s.
 """
 
 from __future__ import annotations

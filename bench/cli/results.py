@@ -205,8 +205,8 @@ def add(sub: argparse._SubParsersAction) -> None:
         description="Per env, algorithm and demo count in both folders (or per env and demo"
         " count, two algorithms of one folder with --between): each side's IQM over seeds with"
         " a 95% CI, P(run > reference) with its CI, and a verdict: identical (each seed scores"
-        " as the reference's same seed), differs (a rank test by permutation gives p < 0.01, or --alpha: of fresh draws of"
-        " one distribution, that share of rows) or agrees.",
+        " as the reference's same seed), differs (a rank test by permutation gives p < 0.01,"
+        " or --alpha: of fresh draws of one distribution, that share of rows) or agrees.",
     )
     cmp.add_argument("run", help="a suite's results folder, e.g. runs/quick")
     cmp.add_argument(
