@@ -123,6 +123,14 @@ def test_order_and_colors_are_fixed():
     names = labels.Names.of(described(frame()))
     assert names.order(["gail", "random", "gaifo", "expert"]) == ["gaifo", "gail"]  # by role
     assert names.in_order(["expert", "gail", "random"]) == ["gail", "expert", "random"]
+    roles = {"survival": "floor", "oracle": "ceiling", "gaifo": "learner", "pwil": "learner"}
+    by_role = labels.Names({a: labels.Shown(a, role, "trpo", a) for a, role in roles.items()})
+    assert by_role.order(["oracle", "pwil", "survival", "gaifo"]) == [  # methods, then controls
+        "gaifo",
+        "pwil",
+        "survival",
+        "oracle",
+    ]
     assert (
         plot.algorithm_colors(["gail"])["gail"]
         == plot.algorithm_colors(["gaifo", "gail", "x"])["gail"]

@@ -80,9 +80,15 @@ class Names(Mapping[str, Shown]):
         return [a for a in names if self[a].role in roles]
 
     def order(self, names: Iterable[str]) -> list[str]:
-        """Learners and controls in the paper's order (`PAPER_ALGORITHMS`), then the others
-        alphabetically; the references left out."""
-        return algorithm_order(a for a in names if self[a].role not in REFERENCE_ROLES)
+        """The learners, then the floors, then the ceilings, each in the paper's order
+        (`algorithm_order`); the references left out. A table reads the methods first and the
+        controls that bracket them after, however many methods a folder holds."""
+        names = set(names)
+        return [
+            a
+            for role in ("learner", "floor", "ceiling")
+            for a in algorithm_order(n for n in names if self[n].role == role)
+        ]
 
     def in_order(self, names: Iterable[str]) -> list[str]:
         """`names` without repeats: `order`, then any references as given."""

@@ -80,8 +80,10 @@ def _bold_names(shown: Sequence[str], names: Names) -> str:
     return ", ".join(f"**{names.label(n)}**" for n in shown)
 
 
-def _is_a(shown: Sequence[str]) -> str:
-    return "is a" if len(shown) == 1 else "are each a"
+def _is_a(shown: Sequence[str], noun: str) -> str:
+    """ "is a lower", "is an upper", "are each an upper": `noun` after its verb and article."""
+    article = "an" if noun[0] in "aeiou" else "a"
+    return f"{'is' if len(shown) == 1 else 'are each'} {article} {noun}"
 
 
 def how_to_read(learners: Sequence[str], reps: int, names: Names, focus: str = TARGET) -> str:
@@ -108,7 +110,7 @@ def how_to_read(learners: Sequence[str], reps: int, names: Names, focus: str = T
     ]
     if floors := names.with_role(learners, "floor"):
         items.append(
-            f"{_bold_names(floors, names)} {_is_a(floors)} lower control (the floor): no "
+            f"{_bold_names(floors, names)} {_is_a(floors, 'lower')} control (the floor): no "
             "demonstrations, trained on a reward that says nothing of the task but to stay in "
             "it (the built-in Survival: +1 per step alive), so the same runs appear at every "
             "demonstration count. A learner that does not beat it has not shown that it "
@@ -116,7 +118,7 @@ def how_to_read(learners: Sequence[str], reps: int, names: Names, focus: str = T
         )
     if ceilings := names.with_role(learners, "ceiling"):
         items.append(
-            f"{_bold_names(ceilings, names)} {_is_a(ceilings)} upper control (the ceiling): "
+            f"{_bold_names(ceilings, names)} {_is_a(ceilings, 'upper')} control (the ceiling): "
             "an optimizer with the imitators' settings, trained on the env's own reward, no "
             "demonstrations. It is drawn as a line, not a bar. A learner's IQM as a fraction of "
             "its own optimizer's ceiling (per env) says how much of what the optimizer reaches "
