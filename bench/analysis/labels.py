@@ -11,7 +11,7 @@ from dataclasses import dataclass
 import pandas as pd
 
 from bench.envs import PAPER_ENVS
-from bench.harness.registry import REFERENCE_ROLES
+from bench.harness.registry import CONTROL_ROLES, REFERENCE_ROLES
 
 PAPER_ALGORITHMS = ("gaifo", "gail", "bco", "tcn", "survival")
 """The paper's order and colors, kept whatever else is drawn beside them; other algorithms
@@ -80,13 +80,13 @@ class Names(Mapping[str, Shown]):
         return [a for a in names if self[a].role in roles]
 
     def order(self, names: Iterable[str]) -> list[str]:
-        """The learners, then the floors, then the ceilings, each in the paper's order
-        (`algorithm_order`); the references left out. A table reads the methods first and the
-        controls that bracket them after, however many methods a folder holds."""
+        """The learners, then the controls (floors, then ceilings: `CONTROL_ROLES`), each in the
+        paper's order (`algorithm_order`); the references left out. A table reads the methods
+        first and the controls that bracket them after, however many methods a folder holds."""
         names = set(names)
         return [
             a
-            for role in ("learner", "floor", "ceiling")
+            for role in ("learner", *CONTROL_ROLES)
             for a in algorithm_order(n for n in names if self[n].role == role)
         ]
 
