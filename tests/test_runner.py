@@ -519,6 +519,29 @@ def test_records_that_measured_their_cpu_time_price_by_it_not_by_their_wall_time
     assert row.seconds == pytest.approx(21.0) and "median of 2" in row.basis
 
 
+def test_a_kind_timed_only_by_the_wall_here_is_scaled_from_the_cpu_timed_kinds_here():
+    """GAIL's records on A are wall times of trials that shared a core (4x their cost); GAIfO's
+    there measured CPU time. GAIL on A is then priced as GAIfO on A, times GAIL's CPU rate over
+    GAIfO's where both measured it (B), not by its own swollen wall times."""
+
+    def done(env_id: str, algorithm: str, wall: float, cpu: float | None) -> TrialResult:
+        spec = TrialSpec("s", env_id, algorithm, 5, 0, 1000, 10)
+        return TrialResult(spec, "ok", [1.0], [], 1000, wall, {}, cpu_time=cpu)
+
+    records = [
+        done("A", "gail", 40.0, None),
+        done("A", "gaifo", 12.0, 10.0),
+        done("B", "gaifo", 25.0, 20.0),
+        done("B", "gail", 26.0, 22.0),
+    ]
+    todo = [TrialSpec("s", "A", "gail", 5, 1, 2000, 10)]
+    (row,) = estimate(todo, records)
+    assert row.seconds == pytest.approx(10.0 * 22.0 / 20.0 * 2)
+    assert "gaifo" in row.basis and "CPU" in row.basis
+    (row,) = estimate(todo, records[:2])  # nothing measured GAIL's CPU time: its wall times
+    assert row.seconds == pytest.approx(80.0) and "median of 1" in row.basis
+
+
 def test_a_kind_new_to_an_env_is_scaled_from_the_algorithms_measured_there():
     """GAIfO on a new env, where only the oracle has run: the oracle's rate here times GAIfO's
     rate over the oracle's on the envs where both ran (a geometric mean over them)."""

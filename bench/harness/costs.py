@@ -123,7 +123,9 @@ class CostModel:
     Budget alone is a poor guide: at the same budget a BCO trial takes 3x a GAIfO one, and the
     references (random, expert) take almost nothing. Wall times made while the machine was
     busy make a price high (CPU times do not), and the median keeps one swamped record from
-    setting it.
+    setting it. So a kind timed here only by the wall, where other kinds here measured CPU time,
+    is scaled from theirs as a new kind would be: HalfCheetah's 1M GAIL records, made two to a
+    core before trials measured CPU time, priced its 5M trials at twice what GAIfO's took.
     """
 
     done: dict[tuple[str | None, str, str], Tally] = field(default_factory=dict)
@@ -198,11 +200,20 @@ class CostModel:
                 for (o, env, algorithm), tally in self.done.items()
                 if o == seen and algorithm == name
             }
-            here = self.done.get((seen, spec.env_id, name), Tally()).trials
+            tally = self.done.get((seen, spec.env_id, name), Tally())
             measured = spec.env_id in by_env  # else: scaled from the algorithms measured here
             scaled = None if measured else self._scaled(seen, spec.env_id, name)
+            # Wall times alone here, where others measured CPU time: go by theirs, scaled.
+            by_cpu = tally.trained and not tally.cpu_priced
+            rescaled = self._scaled(seen, spec.env_id, name, cpu_only=True) if by_cpu else None
+        if measured and rescaled is not None:
+            per_step, others = rescaled
+            return per_step * spec.budget, (
+                f"as {', '.join(others)} here, scaled by CPU times; its {tally.trials} here "
+                "timed only the wall"
+            )
         if measured:
-            return by_env[spec.env_id], f"median of {here} trials"
+            return by_env[spec.env_id], f"median of {tally.trials} trials"
         if scaled is not None:
             per_step, others = scaled
             return per_step * spec.budget, f"as {', '.join(others)} here, scaled"
@@ -241,16 +252,16 @@ class CostModel:
         return float(np.median(list(rates.values()))), family, ", ".join(sorted(rates))
 
     def _scaled(
-        self, seen: str | None, env_id: str, algorithm: str
+        self, seen: str | None, env_id: str, algorithm: str, cpu_only: bool = False
     ) -> tuple[float, list[str]] | None:
         """Seconds per step of `algorithm` on `env_id` (seen as `seen`) from the algorithms
         that trained there: each one's rate here times the geometric mean, over the other envs
         where both trained, of `algorithm`'s rate over its; the geometric mean of those. And
         the algorithms it rests on. None where no algorithm here ran beside it elsewhere.
-        Called with the lock held."""
+        `cpu_only`: from the kinds priced by CPU time alone. Called with the lock held."""
         rates: dict[str, dict[str, float]] = {}  # algorithm -> env -> seconds per step
         for (o, env, algo), tally in self.done.items():
-            if o == seen and tally.trained:
+            if o == seen and tally.trained and (tally.cpu_priced or not cpu_only):
                 rates.setdefault(algo, {})[env] = tally.seconds_per_step()
         mine = rates.get(algorithm, {})
         guesses, others = [], []
