@@ -204,8 +204,8 @@ class CostModel:
             measured = spec.env_id in by_env  # else: scaled from the algorithms measured here
             scaled = None if measured else self._scaled(seen, spec.env_id, name)
             # Wall times alone here, where others measured CPU time: go by theirs, scaled.
-            by_cpu = tally.trained and not tally.cpu_priced
-            rescaled = self._scaled(seen, spec.env_id, name, cpu_only=True) if by_cpu else None
+            wall_only = tally.trained and not tally.cpu_priced
+            rescaled = self._scaled(seen, spec.env_id, name, cpu_only=True) if wall_only else None
         if measured and rescaled is not None:
             per_step, others = rescaled
             return per_step * spec.budget, (
