@@ -407,6 +407,17 @@ def test_time_limit_leaves_the_trials_that_would_not_fit(tmp_path, cli):
     assert not (results / "limited" / ".partial").exists()
 
 
+def test_an_estimate_with_nothing_pending_prints_no_table(tmp_path, cli):
+    body = f"envs: {{{PENDULUM}: {{budget: 2048}}}}\ndemos: [1]\nseeds: 1\neval_episodes: 2\n"
+    suite = write_suite(tmp_path, "done", body + "algorithms: [random]\n")
+    run = ("run", str(suite), "--results", str(tmp_path / "done"))
+    assert cli(*run, "--jobs", "1").returncode == 0
+    out = cli(*run, "--estimate")
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.splitlines()[1:] == ["nothing to run: every trial has its record"]
+    assert out.stdout.startswith("0 of 1 trials pending")
+
+
 def test_time_left_is_the_expected_seconds_over_the_workers():
     def spec(algorithm: str, seed: int, budget: int = 1000) -> TrialSpec:
         return TrialSpec("t", PENDULUM, algorithm, 0, seed, budget, 1)

@@ -167,6 +167,9 @@ def _estimate(specs: list, results: Path, jobs: int, reuse: list[Path]) -> int:
             f"{len(elsewhere)} more finished by other runs, linked, not run again: "
             + ", ".join(f"{n} from {folder}/" for folder, n in sorted(where.items()))
         )
+    if not todo:
+        print("nothing to run: every trial has its record")
+        return 0
     width = max([36, *(len(r.env_id) for r in rows)])
     named = max([14, *(len(r.algorithm) for r in rows)])
     print(
