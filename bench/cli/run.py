@@ -152,8 +152,6 @@ def _estimate(specs: list, results: Path, jobs: int, reuse: list[Path]) -> int:
     todo = pending(specs, finished, retry_failed=False)
     elsewhere = store.find(reuse, {s.trial_id for s in todo}, besides=results)
     todo = [s for s in todo if s.trial_id not in elsewhere]
-    done_before = SnapshotPlan.of(results).done_before(todo)
-    rows = estimate(todo, store.scan_under(results.parent), done_before)
     print(f"{len(todo)} of {len(specs)} trials pending -> {results}/")
     if stale:
         print(
@@ -170,6 +168,8 @@ def _estimate(specs: list, results: Path, jobs: int, reuse: list[Path]) -> int:
     if not todo:
         print("nothing to run: every trial has its record")
         return 0
+    done_before = SnapshotPlan.of(results).done_before(todo)
+    rows = estimate(todo, store.scan_under(results.parent), done_before)
     width = max([36, *(len(r.env_id) for r in rows)])
     named = max([14, *(len(r.algorithm) for r in rows)])
     print(
