@@ -1,8 +1,9 @@
 """mkdocs hook: the committed results, served from where they are.
 
-Every results folder's figures and its `report/` (report.md, its figures) appear in the site
-under `records/<suite>/...`, read from `results/<suite>/...` at build time, so the results
-pages show the same files the records produced and no number or figure is copied into docs/.
+Every results folder's figures, its `report/` and its `budgets/` (their .md, their figures)
+appear in the site under `records/<suite>/...`, read from `results/<suite>/...` at build time,
+so the results pages show the same files the records produced and no number or figure is
+copied into docs/.
 """
 
 from __future__ import annotations
@@ -12,7 +13,7 @@ from pathlib import Path
 from mkdocs.structure.files import File, Files
 
 RESULTS = Path(__file__).resolve().parents[2] / "results"
-SERVED = ("*.png", "report/*.png", "report/*.md")
+SERVED = ("*.png", "report/*.png", "report/*.md", "budgets/*.png", "budgets/*.md")
 
 
 def on_files(files: Files, config) -> Files:
